@@ -1,0 +1,17 @@
+#include "formats/flight_track.h"
+
+namespace rs {
+
+const char* ToString(AltitudeReference r) {
+  switch (r) {
+    case AltitudeReference::kUnknown: return "unknown";
+    case AltitudeReference::kEllipsoid: return "ellipsoid";
+    case AltitudeReference::kAmsl: return "amsl";
+    case AltitudeReference::kTakeoff: return "takeoff";
+  }
+  return "unknown";
+}
+
+const char* ToString(TimeBase b) { return b == TimeBase::kUtc ? "utc" : "boot"; }
+
+}  // namespace rs
