@@ -1,0 +1,272 @@
+#include "survey/executor.h"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+#include <thread>
+
+#include "survey/atomic_file.h"
+#include "survey/hash.h"
+#include "survey/version.h"
+
+namespace rs {
+namespace fs = std::filesystem;
+namespace {
+
+constexpr const char* kMarker = "stage.json";  // written last: its presence marks a complete run
+
+std::string UtcNow() {
+  const auto now = std::chrono::system_clock::now();
+  const std::time_t t = std::chrono::system_clock::to_time_t(now);
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return buf;
+}
+
+std::string SourceKey(const SurveyFile& survey, const std::string& artifact) {
+  KeyHasher h;
+  h.Add(artifact);
+  if (artifact == kSurveyCrs) {
+    h.Add(survey.crs);
+    return h.Hex();
+  }
+  h.Add(survey.inputs.dump());
+  for (const auto& [name, spec] : survey.inputs.items()) {
+    if (const auto p = survey.InputPath(name)) h.Add(name).Add(FingerprintPath(*p));
+  }
+  return h.Hex();
+}
+
+// A complete run for this key and frame selection exists at `dir`.
+bool IsComplete(const fs::path& dir, const Stage& stage, const FrameSelection& frames) {
+  const fs::path marker = dir / kMarker;
+  if (!fs::exists(marker)) return false;
+  try {
+    const auto j = ReadJsonFile(marker);
+    return !stage.info().per_frame || j.value("frame_selection", std::string()) == frames.ToString();
+  } catch (const std::exception&) {
+    return false;  // unreadable marker: treat as incomplete and recompute
+  }
+}
+
+nlohmann::json RecordJson(const StageRunRecord& r) {
+  nlohmann::json j = {{"version", r.version}, {"key", r.key},         {"status", ToString(r.status)},
+                      {"cached", r.cached},   {"wall_s", r.wall_s},   {"options", r.options},
+                      {"inputs", r.input_keys}};
+  if (r.status == StageStatus::kComputed || r.status == StageStatus::kReused || r.status == StageStatus::kFailed)
+    j.update(r.summary.ToJson());
+  if (!r.error.empty()) j["error"] = r.error;
+  return j;
+}
+
+void WriteManifest(const fs::path& path, const SurveyFile& survey, const RunRequest& request,
+                   const std::string& started, const RunReport& report, bool finished) {
+  nlohmann::json stages = nlohmann::json::object();
+  for (const auto& r : report.stages) stages[r.name] = RecordJson(r);
+  nlohmann::json j = {{"roadsurvey_version", kRoadsurveyVersion},
+                      {"survey", {{"name", survey.name}, {"file", survey.path.string()}, {"crs", survey.crs}}},
+                      {"run",
+                       {{"started_utc", started},
+                        {"finished_utc", finished ? UtcNow() : ""},
+                        {"state", finished ? (report.exit_code == 0 ? "succeeded" : "failed") : "running"},
+                        {"frames", request.frames.ToString()},
+                        {"rerun_from", request.rerun_from.value_or("")},
+                        {"only", request.only.value_or("")}}},
+                      {"stages", stages},
+                      {"published", report.published}};
+  WriteJsonAtomic(path, j);
+}
+
+}  // namespace
+
+const char* ToString(StageStatus s) {
+  switch (s) {
+    case StageStatus::kComputed: return "computed";
+    case StageStatus::kReused: return "reused";
+    case StageStatus::kFailed: return "failed";
+    case StageStatus::kBlocked: return "blocked";
+    case StageStatus::kNotSelected: return "not-selected";
+  }
+  return "?";
+}
+
+const StageRunRecord* RunReport::Find(const std::string& name) const {
+  for (const auto& r : stages)
+    if (r.name == name) return &r;
+  return nullptr;
+}
+
+fs::path StageRunDir(const SurveyFile& survey, const std::string& stage, const std::string& key) {
+  return survey.output_dir / "work" / stage / key;
+}
+
+nlohmann::json ResolveOptions(const StageRegistry& registry, const SurveyFile& survey,
+                              const nlohmann::json& cli_overrides) {
+  std::vector<std::string> problems;
+  for (const auto* source : {&survey.stage_options, &cli_overrides}) {
+    for (const auto& [name, value] : source->items())
+      if (!registry.Find(name)) problems.push_back(fmt::format("unknown stage '{}' in options", name));
+  }
+  nlohmann::json resolved = nlohmann::json::object();
+  for (const auto& stage : registry.stages()) {
+    const std::string& name = stage->info().name;
+    try {
+      nlohmann::json overrides = survey.stage_options.value(name, nlohmann::json::object());
+      if (cli_overrides.contains(name)) overrides.update(cli_overrides[name]);
+      resolved[name] = stage->options().Merge(overrides, name);
+      stage->CheckOptions(resolved[name]);
+    } catch (const OptionError& e) {
+      problems.push_back(e.what());
+    }
+  }
+  if (!problems.empty()) throw ConfigError(problems);
+  return resolved;
+}
+
+std::map<std::string, std::string> ComputeKeys(const StageRegistry& registry, const JobGraph& graph,
+                                               const SurveyFile& survey, const nlohmann::json& options,
+                                               std::map<std::string, std::map<std::string, std::string>>* input_keys) {
+  std::map<std::string, std::string> keys;
+  for (const Stage* stage : graph.order()) {
+    const StageInfo& info = stage->info();
+    KeyHasher h;
+    h.Add("stage").Add(info.name).Add(static_cast<int64_t>(info.version)).Add(options.at(info.name).dump());
+    std::map<std::string, std::string> inputs;
+    for (const auto& artifact : info.inputs)
+      inputs[artifact] = IsSourceArtifact(artifact) ? SourceKey(survey, artifact) : keys.at(graph.ProducerOf(artifact));
+    for (const auto& [artifact, key] : inputs) h.Add(artifact).Add(key);  // std::map: sorted, canonical
+    keys[info.name] = h.Hex();
+    if (input_keys) (*input_keys)[info.name] = inputs;
+  }
+  return keys;
+}
+
+RunReport RunSurvey(const StageRegistry& registry, const SurveyFile& survey, const RunRequest& request) {
+  const JobGraph graph = JobGraph::Build(registry);
+  const nlohmann::json options = ResolveOptions(registry, survey, request.cli_overrides);
+  if (request.rerun_from) registry.Get(*request.rerun_from);
+  if (request.only) registry.Get(*request.only);
+
+  std::map<std::string, std::map<std::string, std::string>> input_keys;
+  const auto keys = ComputeKeys(registry, graph, survey, options, &input_keys);
+  const std::set<std::string> forced =
+      request.rerun_from ? graph.Downstream(*request.rerun_from) : std::set<std::string>{};
+  const int threads = request.threads > 0 ? request.threads : std::max(1u, std::thread::hardware_concurrency());
+
+  fs::create_directories(survey.output_dir);
+  RunReport report;
+  report.manifest_path = survey.output_dir / "manifest.json";
+  const std::string started = UtcNow();
+  std::set<std::string> unavailable;  // stages whose outputs this run cannot provide
+
+  for (const Stage* stage : graph.order()) {
+    const StageInfo& info = stage->info();
+    StageRunRecord rec;
+    rec.name = info.name;
+    rec.version = info.version;
+    rec.key = keys.at(info.name);
+    rec.options = options.at(info.name);
+    rec.input_keys = input_keys.at(info.name);
+    const fs::path dir = StageRunDir(survey, info.name, rec.key);
+    const bool complete = IsComplete(dir, *stage, request.frames);
+
+    std::map<std::string, fs::path> input_dirs;
+    std::string blocked_by;
+    for (const auto& artifact : info.inputs) {
+      if (IsSourceArtifact(artifact)) continue;
+      const std::string producer = graph.ProducerOf(artifact);
+      if (unavailable.count(producer)) blocked_by = producer;
+      input_dirs[artifact] = StageRunDir(survey, producer, keys.at(producer));
+    }
+
+    const bool selected = !request.only || *request.only == info.name;
+    if (!selected) {
+      rec.status = StageStatus::kNotSelected;
+      rec.cached = complete;
+      if (!complete) unavailable.insert(info.name);
+    } else if (!blocked_by.empty()) {
+      rec.status = StageStatus::kBlocked;
+      rec.error = request.only ? fmt::format("input from stage '{}' is not in the cache; run without --only first",
+                                             blocked_by)
+                               : fmt::format("not run: stage '{}' failed", blocked_by);
+      rec.exit_code = request.only ? 2 : 1;
+      unavailable.insert(info.name);
+    } else if (complete && !forced.count(info.name)) {
+      rec.status = StageStatus::kReused;
+      rec.cached = true;
+      const auto marker = ReadJsonFile(dir / kMarker);
+      rec.wall_s = marker.value("wall_s", 0.0);
+      rec.summary = StageSummary::FromJson(marker);  // the manifest keeps reporting what the cached run found
+      spdlog::info("{}: reused (key {})", info.name, rec.key);
+    } else {
+      // A forced re-run computes beside the finished run and swaps in only on success:
+      // nothing is lost if it fails.
+      const bool swap = forced.count(info.name) && fs::exists(dir);
+      const fs::path run_dir = swap ? fs::path(dir.string() + ".rerun") : dir;
+      if (swap) fs::remove_all(run_dir);
+      fs::create_directories(run_dir);
+      Progress progress(request.progress);
+      StageContext ctx(info.name, survey, run_dir, input_dirs, request.frames, threads, progress);
+      spdlog::info("{}: running (key {})", info.name, rec.key);
+      const auto t0 = std::chrono::steady_clock::now();
+      try {
+        stage->Run(ctx, rec.options);
+        rec.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        rec.summary = ctx.summary();
+        nlohmann::json marker = {{"stage", info.name},     {"version", info.version},
+                                 {"key", rec.key},         {"options", rec.options},
+                                 {"inputs", rec.input_keys}, {"frame_selection", request.frames.ToString()},
+                                 {"wall_s", rec.wall_s},   {"finished_utc", UtcNow()}};
+        marker.update(rec.summary.ToJson());
+        WriteJsonAtomic(run_dir / kMarker, marker);
+        if (swap) {
+          const fs::path trash = dir.string() + ".old";
+          fs::remove_all(trash);
+          fs::rename(dir, trash);
+          fs::rename(run_dir, dir);
+          fs::remove_all(trash);
+        }
+        rec.status = StageStatus::kComputed;
+        rec.cached = true;
+        spdlog::info("{}: computed in {:.2f} s ({} frames computed, {} reused, {} skipped)", info.name, rec.wall_s,
+                     rec.summary.frames_computed, rec.summary.frames_reused, rec.summary.frames_skipped);
+      } catch (const InputError& e) {
+        rec.error = e.what();
+        rec.exit_code = 2;
+      } catch (const OptionError& e) {
+        rec.error = e.what();
+        rec.exit_code = 2;
+      } catch (const std::exception& e) {
+        rec.error = e.what();
+        rec.exit_code = 1;
+      }
+      if (rec.exit_code != 0) {
+        rec.status = StageStatus::kFailed;
+        rec.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        rec.summary = ctx.summary();
+        unavailable.insert(info.name);
+        spdlog::error("{}: failed: {}", info.name, rec.error);
+      }
+    }
+
+    if (rec.status == StageStatus::kComputed || rec.status == StageStatus::kReused ||
+        (rec.status == StageStatus::kNotSelected && rec.cached)) {
+      for (const auto& pub : info.published) {
+        const fs::path from = dir / pub.from;
+        if (!fs::exists(from)) continue;
+        PublishFile(from, survey.output_dir / pub.to);
+        report.published[pub.to] = from.string();
+      }
+    }
+    report.exit_code = std::max(report.exit_code, rec.exit_code);
+    report.stages.push_back(std::move(rec));
+    WriteManifest(report.manifest_path, survey, request, started, report, false);
+  }
+  WriteManifest(report.manifest_path, survey, request, started, report, true);
+  return report;
+}
+
+}  // namespace rs
