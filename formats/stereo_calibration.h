@@ -1,6 +1,6 @@
 #pragma once
 // A calibrated stereo pair in OpenCV's stereoCalibrate convention.
-// Native file format (OpenCV FileStorage YAML): docs/formats.md, "calibration.yaml".
+// Native file format (OpenCV FileStorage YAML): docs/formats/stereo-sources.md, "calibration.yaml".
 
 #include <array>
 #include <string>

@@ -89,7 +89,7 @@ class SumStage : public TypedStage<SumStage, NoOptions> {
     const auto frames = ReadFrameIndex(ctx.input_dir("frames") / "frames.csv");
     int64_t sum = 0;
     for (size_t i = 0; i < frames.size(); ++i) {
-      if (!ctx.frame_selection().Contains(i)) continue;
+      if (!ctx.frame_selection().Contains(frames[i].id.value)) continue;
       const fs::path v = StageContext::FrameDirIn(ctx.input_dir("scaled"), frames[i].id) / "value.txt";
       if (fs::exists(v)) sum += std::stoll(Slurp(v));
     }

@@ -1,5 +1,5 @@
 #pragma once
-// --frames A:B : which frames of the survey a run covers (Python-style, B exclusive).
+// --frames A:B : which frames of the survey a run covers, by frame id (Python-style, B exclusive).
 
 #include <cstdint>
 #include <limits>

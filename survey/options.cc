@@ -75,8 +75,9 @@ nlohmann::json OptionTableBase::Schema(const std::string& description) const {
   return {{"type", "object"}, {"description", description}, {"additionalProperties", false}, {"properties", props}};
 }
 
-nlohmann::json OptionTableBase::Merge(const nlohmann::json& overrides, const std::string& prefix) const {
-  nlohmann::json merged = Defaults();
+nlohmann::json OptionTableBase::Merge(const nlohmann::json& overrides, const std::string& prefix,
+                                      const nlohmann::json& base) const {
+  nlohmann::json merged = base;
   if (overrides.is_null()) return merged;
   if (!overrides.is_object())
     throw OptionError(fmt::format("{}: expected an object of options, got {}", prefix, overrides.dump()));

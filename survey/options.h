@@ -63,7 +63,11 @@ class OptionTableBase {
   nlohmann::json Schema(const std::string& description) const;
   /// Defaults overlaid with `overrides`; unknown keys and ill-typed or
   /// out-of-range values throw OptionError naming `prefix.key`.
-  nlohmann::json Merge(const nlohmann::json& overrides, const std::string& prefix) const;
+  nlohmann::json Merge(const nlohmann::json& overrides, const std::string& prefix) const {
+    return Merge(overrides, prefix, Defaults());
+  }
+  /// The same over another complete base (e.g. a preset's values).
+  nlohmann::json Merge(const nlohmann::json& overrides, const std::string& prefix, const nlohmann::json& base) const;
 
  protected:
   std::vector<OptionSpec> specs_;

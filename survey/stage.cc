@@ -63,7 +63,7 @@ void StageContext::ForEachFrame(const std::vector<FrameRecord>& frames, const Fr
   std::vector<const FrameRecord*> todo;
   int64_t selected = 0, reused = 0;
   for (size_t i = 0; i < frames.size(); ++i) {
-    if (!frames_.Contains(static_cast<int64_t>(i))) continue;
+    if (!frames_.Contains(frames[i].id.value)) continue;
     ++selected;
     const fs::path dir = FrameDir(frames[i].id);
     if (fs::exists(dir / "skipped.json")) {

@@ -1,0 +1,61 @@
+// roadsurvey run SURVEY.json: runs the job graph, reusing cached stage runs.
+#include <fmt/format.h>
+
+#include "cli/command.h"
+#include "cli/option_flags.h"
+#include "cli/survey_loading.h"
+#include "survey/executor.h"
+
+namespace rs {
+
+Command RunCommand() {
+  return {"run", "Run a survey: every stage whose inputs or options changed, reusing the rest",
+          [](CLI::App& app, const StageRegistry& registry) -> std::function<int()> {
+            struct Args {
+              std::string survey, output, rerun_from, only, frames = "all", progress = "auto";
+              int threads = 0;
+            };
+            auto args = std::make_shared<Args>();
+            app.add_option("survey", args->survey, "survey file (survey.json)")->required();
+            app.add_option("--output", args->output, "output folder (overrides the survey file's \"output\")");
+            app.add_option("--rerun-from", args->rerun_from,
+                           "recompute this stage and everything after it even if cached");
+            app.add_option("--only", args->only, "run only this stage (its inputs must be cached)");
+            app.add_option("--frames", args->frames, "frame range A:B (B exclusive), A:, :B or all");
+            app.add_option("--threads", args->threads, "worker threads (0 = all cores)")->check(CLI::NonNegativeNumber);
+            app.add_option("--progress", args->progress, "progress display")
+                ->check(CLI::IsMember({"auto", "terminal", "log", "quiet"}));
+            auto flags = std::make_shared<OptionFlags>();
+            flags->AddStages(app, registry);
+            return [args, flags, &registry] {
+              SurveyFile survey = LoadSurveyForCommand(args->survey, registry);
+              if (!args->output.empty()) survey.output_dir = std::filesystem::absolute(args->output);
+              RunRequest req;
+              req.cli_overrides = flags->Overrides();
+              if (!args->rerun_from.empty()) req.rerun_from = args->rerun_from;
+              if (!args->only.empty()) req.only = args->only;
+              req.frames = FrameSelection::Parse(args->frames);
+              req.threads = args->threads;
+              req.progress = args->progress == "terminal" ? Progress::Mode::kTerminal
+                             : args->progress == "log"    ? Progress::Mode::kLog
+                             : args->progress == "quiet"  ? Progress::Mode::kQuiet
+                                                          : Progress::Mode::kAuto;
+              const RunReport report = RunSurvey(registry, survey, req);
+
+              fmt::print("\n{:<12} {:<13} {:>9} {:>9} {:>7} {:>8}\n", "stage", "status", "wall [s]", "computed",
+                         "reused", "skipped");
+              for (const auto& r : report.stages) {
+                fmt::print("{:<12} {:<13} {:>9.2f} {:>9} {:>7} {:>8}\n", r.name, ToString(r.status), r.wall_s,
+                           r.summary.frames_computed, r.summary.frames_reused, r.summary.frames_skipped);
+                for (const auto& [reason, n] : r.summary.skip_reasons) fmt::print("    skipped {}x: {}\n", n, reason);
+                if (!r.error.empty()) fmt::print("    error: {}\n", r.error);
+              }
+              fmt::print("\nOutputs in {}\n", survey.output_dir.string());
+              for (const auto& [name, path] : report.published) fmt::print("  {}\n", name);
+              fmt::print("  manifest.json (what ran, keys, counts, warnings, options)\n");
+              return report.exit_code;
+            };
+          }};
+}
+
+}  // namespace rs

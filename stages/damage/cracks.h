@@ -1,0 +1,32 @@
+#pragma once
+// Cracks: thin dark ridges of the left image inside the road region, found by a
+// multi-scale morphological black-hat, measured along their skeleton.
+
+#include "stages/damage/damage_options.h"
+#include "stages/damage/damage_types.h"
+
+#include <opencv2/core.hpp>
+
+#include <vector>
+
+namespace rs {
+
+/// Result of DetectCracks.
+struct CrackDetection {
+  cv::Mat labels;                         ///< CV_16U, ids 1..n (0 = none)
+  std::vector<DamageInstance> instances;  ///< type crack; metric fields NaN without pixel sizes
+  double response_threshold = 0;          ///< black-hat level used (grey levels)
+};
+
+/// Detects cracks in `image` (8-bit grey or BGR). `road_mask` (CV_8U, non-zero = road;
+/// empty = whole image) limits the search; `exclude` (CV_8U, non-zero, may be empty)
+/// removes pixels already explained (potholes, obstacles). `pixel_size_m` (CV_32F,
+/// metres per pixel on the road; empty = unknown) turns lengths and widths into metres;
+/// without it the minimum length is options.min_length_px and metric fields stay NaN.
+/// Width along the skeleton = 2·(distance to the crack edge) − 1 px; length = 8-connected
+/// skeleton path length (diagonal steps √2). Confidence = mean black-hat contrast above the
+/// median / (2·k·σ), clamped to [0, 1].
+CrackDetection DetectCracks(const cv::Mat& image, const cv::Mat& road_mask, const cv::Mat& exclude,
+                            const cv::Mat& pixel_size_m, const CrackOptions& options);
+
+}  // namespace rs

@@ -1,0 +1,162 @@
+#include "stages/damage/damage_options.h"
+
+#include <fmt/format.h>
+
+namespace rs {
+namespace {
+
+// "damage.<a> = x violates <a> <op> <b> (<b> = y)".
+void Require(bool ok, const char* a, double va, const char* op, const char* b, double vb) {
+  if (!ok) throw OptionError(fmt::format("damage.{} = {} violates {} {} {} ({} = {})", a, va, a, op, b, b, vb));
+}
+
+}  // namespace
+
+void RoadModelOptions::Check() const {
+  Require(fit_stride_px >= 1, "fit_stride_px", fit_stride_px, ">=", "1", 1);
+  Require(ransac_iterations >= 1, "ransac_iterations", ransac_iterations, ">=", "1", 1);
+  Require(ransac_inlier_m > 0, "ransac_inlier_m", ransac_inlier_m, ">", "0", 0);
+  Require(obstacle_height_m > ransac_inlier_m, "obstacle_height_m", obstacle_height_m, ">", "ransac_inlier_m",
+          ransac_inlier_m);
+  Require(irls_iterations >= 1, "irls_iterations", irls_iterations, ">=", "1", 1);
+  Require(min_noise_m > 0, "min_noise_m", min_noise_m, ">", "0", 0);
+  Require(delta_px >= 0, "delta_px", delta_px, ">=", "0", 0);
+}
+
+const OptionTable<RoadModelOptions>& RoadModelOptions::Table() {
+  using O = RoadModelOptions;
+  static const auto table = OptionTable<O>()
+      .Add("fit_stride_px", &O::fit_stride_px, "sample every n-th pixel for the road fit", "px").Min(1)
+      .Add("ransac_iterations", &O::ransac_iterations, "plane hypotheses for the dominant road surface").Min(1)
+      .Add("ransac_inlier_m", &O::ransac_inlier_m, "plane inlier band for the hypothesis score", "m").Above(0)
+      .Add("obstacle_height_m", &O::obstacle_height_m, "points this far above the road are obstacles", "m").Above(0)
+      .Add("irls_iterations", &O::irls_iterations, "reweighting passes of the robust quadratic fit").Min(1)
+      .Add("min_noise_m", &O::min_noise_m, "floor of the robust residual scale", "m").Above(0)
+      .Add("delta_px", &O::delta_px, "road level of the transformed disparity", "px").Min(0)
+      .Add("random_seed", &O::random_seed, "RANSAC sampling seed").Min(0);
+  return table;
+}
+
+void SegmentOptions::Check() const {
+  Require(min_threshold_sigma > 0, "min_threshold_sigma", min_threshold_sigma, ">", "0", 0);
+  Require(max_threshold_sigma >= min_threshold_sigma, "max_threshold_sigma", max_threshold_sigma, ">=",
+          "min_threshold_sigma", min_threshold_sigma);
+  Require(grow_fraction > 0 && grow_fraction <= 1, "grow_fraction", grow_fraction, "in", "(0, 1]", 1);
+  Require(slic_region_size_px == 0 || slic_region_size_px >= 4, "slic_region_size_px", slic_region_size_px, ">=",
+          "4 (or 0 = off)", 4);
+  Require(slic_ruler > 0, "slic_ruler", slic_ruler, ">", "0", 0);
+  Require(superpixel_vote > 0 && superpixel_vote < 1, "superpixel_vote", superpixel_vote, "in", "(0, 1)", 0);
+  Require(invalid_fill_fraction > 0 && invalid_fill_fraction <= 1, "invalid_fill_fraction", invalid_fill_fraction,
+          "in", "(0, 1]", 1);
+  Require(morph_radius_px >= 0, "morph_radius_px", morph_radius_px, ">=", "0", 0);
+  Require(rim_depth_m > 0, "rim_depth_m", rim_depth_m, ">", "0", 0);
+  Require(min_area_m2 >= 0, "min_area_m2", min_area_m2, ">=", "0", 0);
+  Require(min_area_px >= 1, "min_area_px", min_area_px, ">=", "1", 1);
+}
+
+const OptionTable<SegmentOptions>& SegmentOptions::Table() {
+  using O = SegmentOptions;
+  static const auto table = OptionTable<O>()
+      .Add("min_threshold_sigma", &O::min_threshold_sigma, "threshold at least this many σ below the road").Above(0)
+      .Add("max_threshold_sigma", &O::max_threshold_sigma, "threshold at most this many σ below the road").Above(0)
+      .Add("slic_region_size_px", &O::slic_region_size_px, "SLIC superpixel size (0 = off)", "px").Min(0)
+      .Add("slic_ruler", &O::slic_ruler, "SLIC compactness").Above(0)
+      .Add("superpixel_vote", &O::superpixel_vote, "below-threshold fraction making a superpixel damage")
+      .Above(0).Below(1)
+      .Add("grow_fraction", &O::grow_fraction, "hysteresis growth level, fraction of the threshold").Above(0).Max(1)
+      .Add("invalid_fill_fraction", &O::invalid_fill_fraction, "border fraction of damage that absorbs an unmatched patch")
+      .Above(0).Max(1)
+      .Add("morph_radius_px", &O::morph_radius_px, "opening/closing radius", "px").Min(0)
+      .Add("rim_depth_m", &O::rim_depth_m, "calibrated rim extension depth", "m").Above(0)
+      .Add("min_area_m2", &O::min_area_m2, "smallest damage kept (calibrated)", "m2").Min(0)
+      .Add("min_area_px", &O::min_area_px, "smallest damage kept (uncalibrated)", "px").Min(1);
+  return table;
+}
+
+void CrackOptions::Check() const {
+  Require(min_scale_px >= 3 && min_scale_px % 2 == 1, "min_scale_px", min_scale_px, ">=", "3 and odd", 3);
+  Require(max_scale_px >= min_scale_px && max_scale_px % 2 == 1, "max_scale_px", max_scale_px, ">=",
+          "min_scale_px (odd)", min_scale_px);
+  Require(k_sigma > 0, "k_sigma", k_sigma, ">", "0", 0);
+  Require(min_length_m > 0, "min_length_m", min_length_m, ">", "0", 0);
+  Require(min_elongation >= 1, "min_elongation", min_elongation, ">=", "1", 1);
+  Require(max_width_m > 0, "max_width_m", max_width_m, ">", "0", 0);
+  Require(min_length_px >= 2, "min_length_px", min_length_px, ">=", "2", 2);
+}
+
+const OptionTable<CrackOptions>& CrackOptions::Table() {
+  using O = CrackOptions;
+  static const auto table = OptionTable<O>()
+      .Add("enabled", &O::enabled, "look for cracks")
+      .Add("min_scale_px", &O::min_scale_px, "smallest black-hat element (odd)", "px").Min(3)
+      .Add("max_scale_px", &O::max_scale_px, "largest black-hat element (odd)", "px").Min(3)
+      .Add("k_sigma", &O::k_sigma, "black-hat threshold in robust σ").Above(0)
+      .Add("min_length_m", &O::min_length_m, "shortest crack", "m").Above(0)
+      .Add("min_elongation", &O::min_elongation, "length / width below this is not a crack").Min(1)
+      .Add("max_width_m", &O::max_width_m, "wider dark regions are not cracks", "m").Above(0)
+      .Add("min_length_px", &O::min_length_px, "shortest crack without calibration", "px").Min(2);
+  return table;
+}
+
+void MeasureOptions::Check() const {
+  Require(sigma_disparity_px > 0, "sigma_disparity_px", sigma_disparity_px, ">", "0", 0);
+  Require(pothole_min_depth_m >= 0, "pothole_min_depth_m", pothole_min_depth_m, ">=", "0", 0);
+  Require(pothole_min_diameter_m >= 0, "pothole_min_diameter_m", pothole_min_diameter_m, ">=", "0", 0);
+  Require(depth_percentile > 0.5 && depth_percentile <= 1, "depth_percentile", depth_percentile, "in", "(0.5, 1]",
+          0);
+}
+
+const OptionTable<MeasureOptions>& MeasureOptions::Table() {
+  using O = MeasureOptions;
+  static const auto table = OptionTable<O>()
+      .Add("sigma_disparity_px", &O::sigma_disparity_px, "stereo matching noise σ_d", "px").Above(0)
+      .Add("pothole_min_depth_m", &O::pothole_min_depth_m, "shallower depressions are 'other'", "m").Min(0)
+      .Add("pothole_min_diameter_m", &O::pothole_min_diameter_m, "narrower depressions are 'other'", "m").Min(0)
+      .Add("depth_percentile", &O::depth_percentile, "percentile of depth reported as max depth").Above(0.5).Max(1);
+  return table;
+}
+
+void SeverityOptions::Check() const {
+  Require(astm_depth_low_m < astm_depth_mid_m, "astm_depth_low_m", astm_depth_low_m, "<", "astm_depth_mid_m",
+          astm_depth_mid_m);
+  Require(astm_depth_mid_m < astm_depth_high_m, "astm_depth_mid_m", astm_depth_mid_m, "<", "astm_depth_high_m",
+          astm_depth_high_m);
+  Require(astm_diameter_min_m < astm_diameter_mid1_m, "astm_diameter_min_m", astm_diameter_min_m, "<",
+          "astm_diameter_mid1_m", astm_diameter_mid1_m);
+  Require(astm_diameter_mid1_m < astm_diameter_mid2_m, "astm_diameter_mid1_m", astm_diameter_mid1_m, "<",
+          "astm_diameter_mid2_m", astm_diameter_mid2_m);
+  Require(astm_diameter_mid2_m < astm_diameter_max_m, "astm_diameter_mid2_m", astm_diameter_mid2_m, "<",
+          "astm_diameter_max_m", astm_diameter_max_m);
+  Require(astm_equivalent_area_m2 > 0, "astm_equivalent_area_m2", astm_equivalent_area_m2, ">", "0", 0);
+  Require(fhwa_pothole_low_m < fhwa_pothole_mid_m, "fhwa_pothole_low_m", fhwa_pothole_low_m, "<",
+          "fhwa_pothole_mid_m", fhwa_pothole_mid_m);
+  Require(fhwa_crack_low_m < fhwa_crack_mid_m, "fhwa_crack_low_m", fhwa_crack_low_m, "<", "fhwa_crack_mid_m",
+          fhwa_crack_mid_m);
+  Require(intervention_depth_m > 0, "intervention_depth_m", intervention_depth_m, ">", "0", 0);
+  Require(intervention_width_m > 0, "intervention_width_m", intervention_width_m, ">", "0", 0);
+  Require(intervention_crack_width_m > 0, "intervention_crack_width_m", intervention_crack_width_m, ">", "0", 0);
+}
+
+const OptionTable<SeverityOptions>& SeverityOptions::Table() {
+  using O = SeverityOptions;
+  static const auto table = OptionTable<O>()
+      .Add("astm_depth_low_m", &O::astm_depth_low_m, "ASTM D6433 smallest graded depth", "m").Above(0)
+      .Add("astm_depth_mid_m", &O::astm_depth_mid_m, "ASTM D6433 depth bin edge", "m").Above(0)
+      .Add("astm_depth_high_m", &O::astm_depth_high_m, "ASTM D6433 depth bin edge", "m").Above(0)
+      .Add("astm_diameter_min_m", &O::astm_diameter_min_m, "ASTM D6433 smallest graded diameter", "m").Above(0)
+      .Add("astm_diameter_mid1_m", &O::astm_diameter_mid1_m, "ASTM D6433 diameter bin edge", "m").Above(0)
+      .Add("astm_diameter_mid2_m", &O::astm_diameter_mid2_m, "ASTM D6433 diameter bin edge", "m").Above(0)
+      .Add("astm_diameter_max_m", &O::astm_diameter_max_m, "ASTM D6433 largest table diameter", "m").Above(0)
+      .Add("astm_equivalent_area_m2", &O::astm_equivalent_area_m2, "area of one equivalent pothole", "m2").Above(0)
+      .Add("fhwa_pothole_min_diameter_m", &O::fhwa_pothole_min_diameter_m, "FHWA smallest pothole", "m").Min(0)
+      .Add("fhwa_pothole_low_m", &O::fhwa_pothole_low_m, "FHWA pothole low/moderate depth edge", "m").Above(0)
+      .Add("fhwa_pothole_mid_m", &O::fhwa_pothole_mid_m, "FHWA pothole moderate/high depth edge", "m").Above(0)
+      .Add("fhwa_crack_low_m", &O::fhwa_crack_low_m, "FHWA crack low/moderate width edge", "m").Above(0)
+      .Add("fhwa_crack_mid_m", &O::fhwa_crack_mid_m, "FHWA crack moderate/high width edge", "m").Above(0)
+      .Add("intervention_depth_m", &O::intervention_depth_m, "pothole intervention depth", "m").Above(0)
+      .Add("intervention_width_m", &O::intervention_width_m, "pothole intervention width", "m").Above(0)
+      .Add("intervention_crack_width_m", &O::intervention_crack_width_m, "crack intervention width", "m").Above(0);
+  return table;
+}
+
+}  // namespace rs

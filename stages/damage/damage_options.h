@@ -1,0 +1,87 @@
+#pragma once
+// Options of the damage algorithms, registered once (survey/options.h) so the
+// stage glue derives the survey.json keys, CLI flags and schema from them.
+
+#include "survey/options.h"
+
+namespace rs {
+
+/// Road surface model: robust quadratic surface in 3D with obstacle removal.
+struct RoadModelOptions {
+  int fit_stride_px = 6;              ///< sample every n-th pixel in u and v for the fit
+  int ransac_iterations = 200;        ///< plane hypotheses tried to find the dominant surface
+  double ransac_inlier_m = 0.03;      ///< plane inlier band for the hypothesis score, m
+  double obstacle_height_m = 0.06;    ///< points this far above the road model are obstacles (cars, kerbs, people)
+  int irls_iterations = 6;            ///< reweighting passes of the Tukey-robust quadratic fit
+  double min_noise_m = 0.002;         ///< floor of the robust residual scale, m (keeps Tukey from collapsing)
+  double delta_px = 30;               ///< δ added to the transformed disparity so the road sits at δ (as fan2019)
+  unsigned random_seed = 1;           ///< RANSAC sampling seed (results are reproducible)
+  void Check() const;
+  static const OptionTable<RoadModelOptions>& Table();
+};
+
+/// Unsupervised segmentation of depressions in a transformed disparity image.
+struct SegmentOptions {
+  double min_threshold_sigma = 4.0;   ///< threshold at least this many robust σ below the road level
+  double max_threshold_sigma = 30.0;  ///< and at most this many (caps the energy-minimising threshold)
+  int slic_region_size_px = 16;       ///< SLIC superpixel size used to snap boundaries, px (0 = no SLIC)
+  double slic_ruler = 20.0;           ///< SLIC compactness
+  double superpixel_vote = 0.4;       ///< fraction of below-threshold pixels that makes a superpixel damage
+  double grow_fraction = 0.5;         ///< hysteresis: grow regions into pixels deeper than this fraction of the threshold
+  double invalid_fill_fraction = 0.3; ///< unmatched patches whose border is at least this fraction damage join it
+  int morph_radius_px = 2;            ///< opening/closing radius, px
+  double rim_depth_m = 0.003;         ///< calibrated: extend instances along the rim into pixels at least this deep, m
+  double min_area_m2 = 0.005;         ///< smallest damage kept when calibration is known, m²
+  int min_area_px = 400;              ///< smallest damage kept without calibration, px
+  void Check() const;
+  static const OptionTable<SegmentOptions>& Table();
+};
+
+/// Thin dark ridges (cracks) in the left image.
+struct CrackOptions {
+  bool enabled = true;                ///< look for cracks at all
+  int min_scale_px = 5;               ///< smallest black-hat structuring element, px (odd)
+  int max_scale_px = 15;              ///< largest black-hat structuring element, px (odd)
+  double k_sigma = 5.0;               ///< response threshold: median + k·σ(MAD) of the black-hat response
+  double min_length_m = 0.15;         ///< shorter thin components are texture, not cracks, m
+  double min_elongation = 6.0;        ///< skeleton length / mean width below this is a blob, not a crack
+  double max_width_m = 0.05;          ///< wider dark regions are not cracks, m
+  int min_length_px = 40;             ///< without calibration: shortest crack, px
+  void Check() const;
+  static const OptionTable<CrackOptions>& Table();
+};
+
+/// Measurement and classification.
+struct MeasureOptions {
+  double sigma_disparity_px = 0.25;     ///< stereo matching noise σ_d used for σ_Z = Z²σ_d/(fB), px
+  double pothole_min_depth_m = 0.013;   ///< shallower depressions are "other" (ASTM smallest graded depth)
+  double pothole_min_diameter_m = 0.10; ///< narrower depressions are "other" (ASTM smallest graded diameter)
+  double depth_percentile = 0.99;       ///< max depth = this percentile of per-pixel depth (rejects single-pixel spikes)
+  void Check() const;
+  static const OptionTable<MeasureOptions>& Table();
+};
+
+/// Severity tables and intervention thresholds. Defaults: ASTM D6433 and FHWA
+/// LTPP as in MISSION.md; intervention: UK 40 mm depth and 300 mm width.
+struct SeverityOptions {
+  double astm_depth_low_m = 0.013;      ///< ASTM depth bins: (13, 25], (25, 50], > 50 mm
+  double astm_depth_mid_m = 0.025;
+  double astm_depth_high_m = 0.050;
+  double astm_diameter_min_m = 0.100;   ///< ASTM diameter bins: [100, 200], (200, 450], (450, 750] mm
+  double astm_diameter_mid1_m = 0.200;
+  double astm_diameter_mid2_m = 0.450;
+  double astm_diameter_max_m = 0.750;   ///< wider: counted as area / astm_equivalent_area_m2 potholes
+  double astm_equivalent_area_m2 = 0.5;
+  double fhwa_pothole_min_diameter_m = 0.150;  ///< FHWA: smaller depressions are not potholes
+  double fhwa_pothole_low_m = 0.025;    ///< FHWA pothole depth: low ≤ 25, moderate ≤ 50, high > 50 mm
+  double fhwa_pothole_mid_m = 0.050;
+  double fhwa_crack_low_m = 0.006;      ///< FHWA crack width: low ≤ 6, moderate ≤ 19, high > 19 mm
+  double fhwa_crack_mid_m = 0.019;
+  double intervention_depth_m = 0.040;  ///< potholes at least this deep ...
+  double intervention_width_m = 0.300;  ///< ... and at least this wide need intervention
+  double intervention_crack_width_m = 0.019;  ///< cracks at least this wide need intervention
+  void Check() const;
+  static const OptionTable<SeverityOptions>& Table();
+};
+
+}  // namespace rs

@@ -1,0 +1,70 @@
+#pragma once
+// Data types shared by the damage algorithms: camera geometry, one measured
+// damage instance, and its severity grades. Units are in the field names.
+
+#include <opencv2/core.hpp>
+
+#include <limits>
+#include <string>
+#include <vector>
+
+namespace rs {
+
+/// Marks a measurement that could not be made (e.g. no calibration).
+inline constexpr double kUnknown = std::numeric_limits<double>::quiet_NaN();
+
+/// Rectified stereo geometry of the reference (left) camera: Z = f·B / d.
+struct StereoGeometry {
+  double f_px = 0;        ///< focal length, px (fx of the rectified pair)
+  double cx_px = 0;       ///< principal point column, px
+  double cy_px = 0;       ///< principal point row, px
+  double baseline_m = 0;  ///< stereo baseline, m
+  /// True when f and B are positive and finite (principal point may be anywhere).
+  bool Valid() const;
+};
+
+/// Kind of damage an instance was classified as.
+enum class DamageType { kPothole, kCrack, kOther };
+/// "pothole", "crack", "other".
+const char* DamageTypeName(DamageType type);
+
+/// A severity level; kNone = below the table's smallest graded size.
+enum class SeverityLevel { kNone, kLow, kMedium, kHigh };
+/// "none", "low", "medium", "high".
+const char* SeverityLevelName(SeverityLevel level);
+
+/// One grade and the rule that decided it, e.g.
+/// "ASTM D6433: max depth 32 mm in (25, 50] mm, mean diameter 310 mm in (200, 450] mm -> medium".
+struct SeverityGrade {
+  SeverityLevel level = SeverityLevel::kNone;
+  double equivalent_count = 0;  ///< ASTM: potholes counted (area / 0.5 m² when wider than 750 mm)
+  std::string rule;
+};
+
+/// One damage instance with its measurements. Metric fields are NaN where
+/// unknown (no calibration) so that a missing value is never a silent zero.
+struct DamageInstance {
+  int id = 0;                        ///< label value in the instance image (1..65535)
+  DamageType type = DamageType::kOther;
+  std::vector<cv::Point> outline_px;         ///< outer boundary, pixel corners of the label
+  std::vector<cv::Point3d> outline_cam_m;    ///< outline on the road surface, camera frame, m
+  int pixel_count = 0;
+  double area_m2 = kUnknown;                ///< area projected on the road plane
+  double max_depth_m = kUnknown;            ///< deepest point below the road surface
+  double mean_depth_m = kUnknown;           ///< mean depth below the road surface over the instance
+  double volume_m3 = kUnknown;              ///< volume between road surface and damage
+  double equivalent_diameter_m = kUnknown;  ///< sqrt(4·area/π)
+  double max_diameter_m = kUnknown;         ///< largest distance between two outline points on the road plane
+  double length_m = kUnknown;               ///< cracks: skeleton length
+  double mean_width_m = kUnknown;           ///< cracks: mean width along the skeleton
+  double max_width_m = kUnknown;            ///< cracks: largest width along the skeleton
+  double range_m = kUnknown;                ///< mean camera distance Z of the road under the instance
+  double sigma_depth_m = kUnknown;          ///< stereo depth uncertainty σ_Z = Z²·σ_d/(f·B) at range_m
+  double confidence = 0;             ///< 0..1, see docs/stages/damage.md
+  SeverityGrade astm;                ///< ASTM D6433 pothole grade (potholes only)
+  SeverityGrade fhwa;                ///< FHWA LTPP grade (potholes and cracks)
+  bool intervention = false;         ///< exceeds the configured intervention thresholds
+  std::string intervention_rule;     ///< why (or why not) it needs intervention
+};
+
+}  // namespace rs

@@ -1,0 +1,152 @@
+#include "stages/damage/measure.h"
+
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace rs {
+
+double StereoDepthSigma(double z_m, double sigma_d, const StereoGeometry& g) {
+  return z_m * z_m * sigma_d / (g.f_px * g.baseline_m);
+}
+
+cv::Mat PixelAreaOnRoad(const RoadRelief& r, const StereoGeometry& g, const RoadSurface& s) {
+  cv::Mat area(r.road_depth_m.size(), CV_32F);
+  const double k = 1.0 / (g.f_px * g.f_px * std::max(s.camera_height_m, 1e-9));
+  for (int v = 0; v < area.rows; ++v) {
+    const float* z = r.road_depth_m.ptr<float>(v);
+    float* a = area.ptr<float>(v);
+    for (int u = 0; u < area.cols; ++u) a[u] = static_cast<float>(double(z[u]) * z[u] * z[u] * k);
+  }
+  return area;
+}
+
+std::vector<cv::Point> OutlineOf(const cv::Mat& labels, int id) {
+  std::vector<std::vector<cv::Point>> contours;
+  cv::findContours(labels == id, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
+  if (contours.empty()) return {};
+  auto biggest = std::max_element(contours.begin(), contours.end(), [](const auto& a, const auto& b) {
+    return cv::contourArea(a) < cv::contourArea(b);
+  });
+  std::vector<cv::Point> poly;
+  cv::approxPolyDP(*biggest, poly, 1.0, true);
+  return poly;
+}
+
+void ExtendToRim(cv::Mat& labels, const RoadRelief& r, double rim_depth_m) {
+  double maxv = 0;
+  cv::minMaxLoc(labels, nullptr, &maxv);
+  for (int id = 1; id <= static_cast<int>(maxv); ++id) {
+    std::vector<cv::Point> pts;
+    cv::findNonZero(labels == id, pts);
+    if (pts.empty()) continue;
+    const int band = std::max(1, static_cast<int>(0.3 * std::sqrt(pts.size() / CV_PI)));
+    cv::Rect roi = cv::boundingRect(pts);
+    roi = cv::Rect(roi.x - band - 1, roi.y - band - 1, roi.width + 2 * band + 2, roi.height + 2 * band + 2) &
+          cv::Rect({}, labels.size());
+    cv::Mat lab = labels(roi);  // view: writes go to `labels`
+    const cv::Mat inst = lab == id;
+    cv::Mat zone;
+    cv::dilate(inst, zone, cv::getStructuringElement(cv::MORPH_ELLIPSE, {2 * band + 1, 2 * band + 1}));
+    // Candidates: deep (NaN compares false), inside the band, not another instance; keep those
+    // connected to the instance.
+    const cv::Mat deep = r.depth_below_mm(roi) >= rim_depth_m * 1000.0;
+    const cv::Mat cand = ((deep & zone) & (lab == 0)) | inst;
+    cv::Mat cc;
+    const int n = cv::connectedComponents(cand, cc, 8, CV_32S);
+    std::vector<char> keep(n, 0);
+    for (int v = 0; v < cc.rows; ++v)
+      for (int u = 0; u < cc.cols; ++u)
+        if (inst.at<uchar>(v, u)) keep[cc.at<int>(v, u)] = 1;
+    for (int v = 0; v < cc.rows; ++v) {
+      uint16_t* l = lab.ptr<uint16_t>(v);
+      const int* c = cc.ptr<int>(v);
+      for (int u = 0; u < cc.cols; ++u)
+        if (c[u] > 0 && keep[c[u]] && l[u] == 0) l[u] = static_cast<uint16_t>(id);
+    }
+  }
+}
+
+std::vector<DamageInstance> MeasureDepressions(const cv::Mat& labels, const RoadRelief& r, const StereoGeometry& g,
+                                               const RoadSurface& s, const MeasureOptions& o) {
+  if (labels.type() != CV_16UC1 || labels.size() != r.depth_below_mm.size())
+    throw std::invalid_argument("MeasureDepressions: labels must be CV_16U of the relief's size");
+  o.Check();
+  const cv::Mat area = PixelAreaOnRoad(r, g, s);
+  double maxv = 0;
+  cv::minMaxLoc(labels, nullptr, &maxv);
+  const int n = static_cast<int>(maxv);
+  struct Acc {
+    std::vector<double> depth;
+    double area = 0, area_valid = 0, volume = 0, z = 0;
+    int pixels = 0, invalid = 0;
+  };
+  std::vector<Acc> acc(n + 1);
+  for (int v = 0; v < labels.rows; ++v) {
+    const uint16_t* l = labels.ptr<uint16_t>(v);
+    const float* d = r.depth_below_mm.ptr<float>(v);
+    const float* a = area.ptr<float>(v);
+    const float* z = r.road_depth_m.ptr<float>(v);
+    for (int u = 0; u < labels.cols; ++u) {
+      if (!l[u] || !std::isfinite(a[u])) continue;
+      Acc& c = acc[l[u]];
+      ++c.pixels;
+      c.area += a[u];
+      c.z += z[u];
+      if (std::isfinite(d[u])) {
+        const double depth_m = d[u] / 1000.0;
+        c.depth.push_back(depth_m);
+        c.area_valid += a[u];
+        c.volume += std::max(0.0, depth_m) * a[u];  // material above the road is not missing volume
+      } else {
+        ++c.invalid;
+      }
+    }
+  }
+  std::vector<DamageInstance> out;
+  for (int id = 1; id <= n; ++id) {
+    Acc& c = acc[id];
+    if (c.pixels == 0) continue;
+    DamageInstance d;
+    d.id = id;
+    d.pixel_count = c.pixels;
+    d.area_m2 = c.area;
+    d.range_m = c.z / c.pixels;
+    d.sigma_depth_m = StereoDepthSigma(d.range_m, o.sigma_disparity_px, g);
+    if (!c.depth.empty()) {
+      double sum = 0;
+      for (double x : c.depth) sum += x;
+      d.mean_depth_m = sum / c.depth.size();
+      auto it = c.depth.begin() + static_cast<long>(o.depth_percentile * (c.depth.size() - 1));
+      std::nth_element(c.depth.begin(), it, c.depth.end());
+      d.max_depth_m = *it;
+      d.volume_m3 = c.volume + std::max(0.0, d.mean_depth_m) * (c.area - c.area_valid);
+    }
+    d.equivalent_diameter_m = std::sqrt(4.0 * d.area_m2 / CV_PI);
+    d.outline_px = OutlineOf(labels, id);
+    std::vector<Eigen::Vector3d> ring;
+    for (const cv::Point& p : d.outline_px) {
+      const double z = s.RayDepth(g, p.x, p.y);
+      if (!std::isfinite(z)) continue;
+      const Eigen::Vector3d q((p.x - g.cx_px) * z / g.f_px, (p.y - g.cy_px) * z / g.f_px, z);
+      ring.push_back(q);
+      d.outline_cam_m.emplace_back(q.x(), q.y(), q.z());
+    }
+    double dmax = 0;
+    for (size_t i = 0; i < ring.size(); ++i)
+      for (size_t j = i + 1; j < ring.size(); ++j) dmax = std::max(dmax, (ring[i] - ring[j]).norm());
+    d.max_diameter_m = dmax;
+    const bool deep = std::isfinite(d.max_depth_m) && d.max_depth_m >= o.pothole_min_depth_m;
+    d.type = deep && d.equivalent_diameter_m >= o.pothole_min_diameter_m ? DamageType::kPothole : DamageType::kOther;
+    // Confidence: how far the mean depth stands above the stereo noise (a 3σ_Z depression ≈ 0.99).
+    d.confidence = std::isfinite(d.mean_depth_m) && d.sigma_depth_m > 0
+                       ? 1.0 - std::exp(-0.5 * std::pow(std::max(0.0, d.mean_depth_m) / d.sigma_depth_m, 2))
+                       : 0.0;
+    out.push_back(std::move(d));
+  }
+  return out;
+}
+
+}  // namespace rs

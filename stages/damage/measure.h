@@ -1,0 +1,38 @@
+#pragma once
+// Metric measurement of segmented depressions on the road model: area on the
+// road plane, depth, volume, diameters, outline in camera metres, σ_Z.
+
+#include "stages/damage/damage_options.h"
+#include "stages/damage/damage_types.h"
+#include "stages/damage/road_surface.h"
+
+#include <opencv2/core.hpp>
+
+#include <vector>
+
+namespace rs {
+
+/// Road-plane area of each pixel, m² (CV_32F; NaN off-road): a pixel ray meeting the
+/// plane at camera depth Z covers Z³ / (f² · h), h = camera height above the plane.
+cv::Mat PixelAreaOnRoad(const RoadRelief& relief, const StereoGeometry& geometry, const RoadSurface& surface);
+
+/// Grows each instance of `labels` (in place) into connected pixels at least `rim_depth_m`
+/// below the road, within a band of 30 % of the instance's equivalent radius: the
+/// threshold of the unsupervised segmentation stops short of the shallow rim.
+void ExtendToRim(cv::Mat& labels, const RoadRelief& relief, double rim_depth_m);
+
+/// Measures every instance 1..max of a CV_16U label image. Invalid pixels inside an
+/// instance count for area and take the instance's mean depth for the volume.
+/// Type: pothole when max depth ≥ pothole_min_depth_m and equivalent diameter ≥
+/// pothole_min_diameter_m, otherwise other. Severity is not graded here.
+std::vector<DamageInstance> MeasureDepressions(const cv::Mat& labels, const RoadRelief& relief,
+                                               const StereoGeometry& geometry, const RoadSurface& surface,
+                                               const MeasureOptions& options);
+
+/// Outer boundary of one label as a polygon (pixel coordinates), simplified to 1 px.
+std::vector<cv::Point> OutlineOf(const cv::Mat& labels, int id);
+
+/// Stereo depth uncertainty σ_Z = Z²·σ_d / (f·B), m.
+double StereoDepthSigma(double z_m, double sigma_disparity_px, const StereoGeometry& geometry);
+
+}  // namespace rs

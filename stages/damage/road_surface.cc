@@ -1,0 +1,264 @@
+#include "stages/damage/road_surface.h"
+
+#include <Eigen/Dense>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <random>
+#include <stdexcept>
+#include <vector>
+
+namespace rs {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kTukeyC = 4.685;  // 95 % efficiency at the Gaussian
+
+bool ValidDisparity(float d) { return std::isfinite(d) && d > 0; }
+
+Eigen::Vector3d Backproject(const StereoGeometry& g, double u, double v, double d) {
+  const double z = g.f_px * g.baseline_m / d;
+  return {(u - g.cx_px) * z / g.f_px, (v - g.cy_px) * z / g.f_px, z};
+}
+
+double Median(std::vector<double> v) {
+  if (v.empty()) return kNaN;
+  auto mid = v.begin() + v.size() / 2;
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
+// Plane frame from a normal: n towards the camera, e1 along the camera x axis.
+void SetFrame(RoadSurface& s, Eigen::Vector3d n, const Eigen::Vector3d& origin) {
+  n.normalize();
+  if (n.dot(-origin) < 0) n = -n;
+  Eigen::Vector3d e1 = Eigen::Vector3d::UnitX() - n * n.x();
+  if (e1.norm() < 1e-6) e1 = Eigen::Vector3d::UnitZ() - n * n.z();
+  e1.normalize();
+  s.normal = n;
+  s.e1 = e1;
+  s.e2 = n.cross(e1);
+  s.origin_m = origin;
+  s.camera_height_m = std::abs(n.dot(origin));
+}
+
+Eigen::Matrix<double, 6, 1> Monomials(double s, double t) {
+  Eigen::Matrix<double, 6, 1> m;
+  m << 1, s, t, s * s, s * t, t * t;
+  return m;
+}
+
+}  // namespace
+
+bool StereoGeometry::Valid() const {
+  return std::isfinite(f_px) && f_px > 0 && std::isfinite(baseline_m) && baseline_m > 0 && std::isfinite(cx_px) &&
+         std::isfinite(cy_px);
+}
+
+double RoadSurface::DepthBelow(const Eigen::Vector3d& p) const {
+  const Eigen::Vector3d r = p - origin_m;
+  const double q = coeffs.dot(Monomials(e1.dot(r) / scale_m, e2.dot(r) / scale_m));
+  return q - normal.dot(r);
+}
+
+double RoadSurface::RayDepth(const StereoGeometry& g, double u, double v) const {
+  // P = Z·ray; s, t, h are affine in Z, so h = q(s, t) is a quadratic in Z.
+  const Eigen::Vector3d ray((u - g.cx_px) / g.f_px, (v - g.cy_px) / g.f_px, 1.0);
+  const double as = e1.dot(ray) / scale_m, bs = -e1.dot(origin_m) / scale_m;
+  const double at = e2.dot(ray) / scale_m, bt = -e2.dot(origin_m) / scale_m;
+  const double ah = normal.dot(ray), bh = -normal.dot(origin_m);
+  const auto& c = coeffs;
+  const double A = -(c[3] * as * as + c[4] * as * at + c[5] * at * at);
+  const double B = ah - c[1] * as - c[2] * at - (2 * c[3] * as * bs + c[4] * (as * bt + at * bs) + 2 * c[5] * at * bt);
+  const double C = bh - c[0] - c[1] * bs - c[2] * bt - (c[3] * bs * bs + c[4] * bs * bt + c[5] * bt * bt);
+  if (std::abs(B) < 1e-12) return kNaN;
+  const double z_lin = -C / B;
+  if (std::abs(A * z_lin * z_lin) < 1e-9 * std::abs(C) + 1e-15) return z_lin > 0 ? z_lin : kNaN;
+  const double disc = B * B - 4 * A * C;
+  if (disc < 0) return kNaN;
+  const double sq = std::sqrt(disc);
+  // Stable roots; keep the one nearest the planar solution (the other is the far branch of the parabola).
+  const double qq = -0.5 * (B + (B >= 0 ? sq : -sq));
+  const double z1 = qq / A, z2 = C / qq;
+  const double z = std::abs(z1 - z_lin) < std::abs(z2 - z_lin) ? z1 : z2;
+  return z > 0 ? z : kNaN;
+}
+
+RoadSurface FitRoadSurface(const cv::Mat& disparity_px, const StereoGeometry& g, const RoadModelOptions& o) {
+  if (!g.Valid()) throw std::invalid_argument("road surface: stereo geometry needs f > 0 and baseline > 0");
+  if (disparity_px.type() != CV_32FC1) throw std::invalid_argument("road surface: disparity must be CV_32FC1");
+  o.Check();
+
+  std::vector<Eigen::Vector3d> pts;
+  for (int v = 0; v < disparity_px.rows; v += o.fit_stride_px) {
+    const float* row = disparity_px.ptr<float>(v);
+    for (int u = 0; u < disparity_px.cols; u += o.fit_stride_px)
+      if (ValidDisparity(row[u])) pts.push_back(Backproject(g, u, v, row[u]));
+  }
+  if (pts.size() < 50) throw std::invalid_argument("road surface: fewer than 50 valid disparities to fit");
+
+  // 1. Dominant plane by RANSAC, scored on a fixed random subset (speed).
+  std::mt19937 rng(o.random_seed);
+  std::vector<int> subset;
+  {
+    std::uniform_int_distribution<int> pick(0, static_cast<int>(pts.size()) - 1);
+    const int m = std::min<int>(4000, static_cast<int>(pts.size()));
+    for (int i = 0; i < m; ++i) subset.push_back(pick(rng));
+  }
+  std::uniform_int_distribution<int> pick(0, static_cast<int>(pts.size()) - 1);
+  Eigen::Vector3d best_n = -Eigen::Vector3d::UnitY();
+  double best_c = 0;
+  int best_score = -1;
+  for (int it = 0; it < o.ransac_iterations; ++it) {
+    const Eigen::Vector3d &a = pts[pick(rng)], &b = pts[pick(rng)], &c = pts[pick(rng)];
+    Eigen::Vector3d n = (b - a).cross(c - a);
+    if (n.norm() < 1e-12) continue;
+    n.normalize();
+    const double off = n.dot(a);
+    int score = 0;
+    for (int i : subset) score += std::abs(n.dot(pts[i]) - off) < o.ransac_inlier_m;
+    if (score > best_score) best_score = score, best_n = n, best_c = off;
+  }
+  // Least-squares plane through the RANSAC inliers.
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  std::vector<int> inl;
+  for (size_t i = 0; i < pts.size(); ++i)
+    if (std::abs(best_n.dot(pts[i]) - best_c) < o.ransac_inlier_m) inl.push_back(static_cast<int>(i));
+  if (inl.size() < 10) throw std::invalid_argument("road surface: no dominant road plane found");
+  for (int i : inl) centroid += pts[i];
+  centroid /= static_cast<double>(inl.size());
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (int i : inl) cov += (pts[i] - centroid) * (pts[i] - centroid).transpose();
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
+  RoadSurface s;
+  SetFrame(s, es.eigenvectors().col(0), centroid);
+  double spread = 0;
+  for (int i : inl) spread += (pts[i] - centroid).squaredNorm();
+  s.scale_m = std::max(1e-3, std::sqrt(spread / static_cast<double>(inl.size())));
+  s.points_used = static_cast<int>(pts.size());
+
+  // 2. Obstacles first (far above the current model), then the Tukey-IRLS quadratic; twice, so a
+  //    curved road is judged against the curved model, not the plane.
+  std::vector<double> st_s(pts.size()), st_t(pts.size()), h(pts.size());
+  for (size_t i = 0; i < pts.size(); ++i) {
+    const Eigen::Vector3d r = pts[i] - s.origin_m;
+    st_s[i] = s.e1.dot(r) / s.scale_m;
+    st_t[i] = s.e2.dot(r) / s.scale_m;
+    h[i] = s.normal.dot(r);
+  }
+  std::vector<char> obstacle(pts.size(), 0);
+  std::vector<double> w(pts.size(), 1.0), res(pts.size());
+  double sigma = o.min_noise_m;
+  for (int round = 0; round < 2; ++round) {
+    for (size_t i = 0; i < pts.size(); ++i) {
+      res[i] = h[i] - s.coeffs.dot(Monomials(st_s[i], st_t[i]));
+      obstacle[i] = res[i] > o.obstacle_height_m;
+      // Start each round from the plane-band inliers: damage and obstacles start with zero weight.
+      w[i] = !obstacle[i] && std::abs(res[i]) < o.ransac_inlier_m ? 1.0 : 0.0;
+    }
+    for (int it = 0; it < o.irls_iterations; ++it) {
+      Eigen::Matrix<double, 6, 6> AtA = Eigen::Matrix<double, 6, 6>::Zero();
+      Eigen::Matrix<double, 6, 1> Atb = Eigen::Matrix<double, 6, 1>::Zero();
+      for (size_t i = 0; i < pts.size(); ++i) {
+        if (w[i] <= 0) continue;
+        const auto m = Monomials(st_s[i], st_t[i]);
+        AtA.selfadjointView<Eigen::Lower>().rankUpdate(m, w[i]);
+        Atb += w[i] * h[i] * m;
+      }
+      AtA = AtA.selfadjointView<Eigen::Lower>();
+      s.coeffs = AtA.ldlt().solve(Atb);
+      std::vector<double> absr;
+      absr.reserve(pts.size());
+      for (size_t i = 0; i < pts.size(); ++i) {
+        res[i] = h[i] - s.coeffs.dot(Monomials(st_s[i], st_t[i]));
+        if (!obstacle[i] && w[i] > 0) absr.push_back(std::abs(res[i]));
+      }
+      sigma = std::max(o.min_noise_m, 1.4826 * Median(absr));
+      for (size_t i = 0; i < pts.size(); ++i) {
+        if (obstacle[i]) { w[i] = 0; continue; }
+        const double x = res[i] / (kTukeyC * sigma);
+        w[i] = std::abs(x) < 1 ? (1 - x * x) * (1 - x * x) : 0.0;
+      }
+    }
+  }
+  s.residual_sigma_m = sigma;
+  s.inliers = static_cast<int>(std::count_if(w.begin(), w.end(), [](double x) { return x > 0; }));
+  s.obstacle_points = static_cast<int>(std::count(obstacle.begin(), obstacle.end(), 1));
+  return s;
+}
+
+RoadRelief ComputeRoadRelief(const cv::Mat& disparity_px, const StereoGeometry& g, const RoadSurface& s,
+                             const RoadModelOptions& o) {
+  if (!g.Valid()) throw std::invalid_argument("road relief: stereo geometry needs f > 0 and baseline > 0");
+  if (disparity_px.type() != CV_32FC1) throw std::invalid_argument("road relief: disparity must be CV_32FC1");
+  RoadRelief r;
+  const cv::Size size = disparity_px.size();
+  r.transformed_disparity_px.create(size, CV_32F);
+  r.depth_below_mm.create(size, CV_32F);
+  r.road_depth_m.create(size, CV_32F);
+  r.obstacle_mask.create(size, CV_8U);
+  r.valid_mask.create(size, CV_8U);
+  const float nanf = std::numeric_limits<float>::quiet_NaN();
+  const double fb = g.f_px * g.baseline_m;
+  // Per frame: s, t, h of P = Z·ray are Z·(a·ray) + b with ray = ((u − cx)/f, (v − cy)/f, 1);
+  // the a·ray terms are affine in u, so a row costs a few multiply-adds per pixel.
+  const double L = s.scale_m;
+  const Eigen::Vector3d ks = s.e1 / L, kt = s.e2 / L, kh = s.normal;
+  const double bs = -ks.dot(s.origin_m), bt = -kt.dot(s.origin_m), bh = -kh.dot(s.origin_m);
+  const auto& c = s.coeffs;
+  tbb::parallel_for(0, size.height, [&](int v) {
+    const float* d = disparity_px.ptr<float>(v);
+    float* td = r.transformed_disparity_px.ptr<float>(v);
+    float* db = r.depth_below_mm.ptr<float>(v);
+    float* rz = r.road_depth_m.ptr<float>(v);
+    uchar* ob = r.obstacle_mask.ptr<uchar>(v);
+    uchar* va = r.valid_mask.ptr<uchar>(v);
+    const double y = (v - g.cy_px) / g.f_px;
+    for (int u = 0; u < size.width; ++u) {
+      const double x = (u - g.cx_px) / g.f_px;
+      const double as = ks.x() * x + ks.y() * y + ks.z(), at = kt.x() * x + kt.y() * y + kt.z();
+      const double ah = kh.x() * x + kh.y() * y + kh.z();
+      // Road: h(Z) = q(s(Z), t(Z)), a quadratic A Z² + B Z + C = 0 (as RoadSurface::RayDepth).
+      const double A = -(c[3] * as * as + c[4] * as * at + c[5] * at * at);
+      const double B = ah - c[1] * as - c[2] * at - (2 * c[3] * as * bs + c[4] * (as * bt + at * bs) + 2 * c[5] * at * bt);
+      const double C = bh - c[0] - c[1] * bs - c[2] * bt - (c[3] * bs * bs + c[4] * bs * bt + c[5] * bt * bt);
+      double z_road = std::numeric_limits<double>::quiet_NaN();
+      if (std::abs(B) > 1e-12) {
+        const double z_lin = -C / B;
+        if (std::abs(A * z_lin * z_lin) < 1e-9 * std::abs(C) + 1e-15) {
+          z_road = z_lin;
+        } else {
+          const double disc = B * B - 4 * A * C;
+          if (disc >= 0) {
+            const double sq = std::sqrt(disc), qq = -0.5 * (B + (B >= 0 ? sq : -sq));
+            const double z1 = qq / A, z2 = C / qq;
+            z_road = std::abs(z1 - z_lin) < std::abs(z2 - z_lin) ? z1 : z2;
+          }
+        }
+        if (!(z_road > 0)) z_road = std::numeric_limits<double>::quiet_NaN();
+      }
+      rz[u] = static_cast<float>(z_road);
+      // A ray that misses the road (above the horizon) has no relief.
+      const bool ok = ValidDisparity(d[u]) && std::isfinite(z_road);
+      va[u] = ok ? 255 : 0;
+      if (!ok) {
+        td[u] = 0;
+        db[u] = nanf;
+        ob[u] = 0;
+        continue;
+      }
+      const double z = fb / d[u];
+      const double ps = z * as + bs, pt = z * at + bt, ph = z * ah + bh;
+      const double below = c[0] + c[1] * ps + c[2] * pt + c[3] * ps * ps + c[4] * ps * pt + c[5] * pt * pt - ph;
+      db[u] = static_cast<float>(below * 1000.0);
+      ob[u] = -below > o.obstacle_height_m ? 255 : 0;
+      // Keep invalid = 0 distinguishable from a very deep pixel: clamp valid values to a tiny positive.
+      td[u] = static_cast<float>(std::max(1e-3, d[u] - fb / z_road + o.delta_px));
+    }
+  });
+  return r;
+}
+
+}  // namespace rs

@@ -1,0 +1,61 @@
+#include "stages/damage/road_surface.h"
+
+#include "stages/damage/damage_pipeline.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+namespace rs {
+namespace {
+
+// Camera height and road normal recovered from a synthetic frame (truth: 1.5 m, pitch 45°).
+TEST(RoadSurface, Nominal) {
+  SyntheticRoadScene scene;
+  const cv::Mat d = scene.Render();
+  const RoadSurface s = FitRoadSurface(d, scene.geometry, RoadModelOptions());
+  const double th = scene.pitch_deg * CV_PI / 180;
+  EXPECT_NEAR(s.camera_height_m, 1.5, 0.005);  // 5 mm
+  EXPECT_GT(s.normal.dot(Eigen::Vector3d(0, -std::cos(th), -std::sin(th))), std::cos(0.2 * CV_PI / 180));
+  // A road point 3 m ahead: depth below the model within 2 mm; the pothole bottom 60 mm ± 5 mm.
+  const RoadRelief r = ComputeRoadRelief(d, scene.geometry, s, RoadModelOptions());
+  EXPECT_NEAR(r.depth_below_mm.at<float>(100, 200), 0.0, 2.0);
+  double mn, mx;
+  cv::minMaxLoc(r.depth_below_mm, &mn, &mx, nullptr, nullptr, r.valid_mask);
+  EXPECT_NEAR(mx, 60.0, 5.0);
+  // Transformed disparity: the road sits at δ.
+  EXPECT_NEAR(r.transformed_disparity_px.at<float>(100, 200), 30.0, 0.3);
+  // Ray/surface intersection agrees with the plane truth: Z = −H / (up·r).
+  const double ur = -std::cos(th) * (500 - 360) / 1000.0 - std::sin(th);
+  EXPECT_NEAR(s.RayDepth(scene.geometry, 640, 500), -1.5 / ur, 0.01);
+}
+
+// A raised slab (a parked car's roof, a kerb) 0.4 m above the road must be removed as an
+// obstacle, must not bias the fit (height within 5 mm, as without it) and must not become damage.
+TEST(RoadSurface, ObstacleRemoved) {
+  SyntheticRoadScene scene;
+  scene.box_height_m = 0.4;
+  const cv::Mat d = scene.Render();
+  const RoadSurface s = FitRoadSurface(d, scene.geometry, RoadModelOptions());
+  EXPECT_NEAR(s.camera_height_m, 1.5, 0.005);
+  EXPECT_GT(s.obstacle_points, 500);
+  const FrameDamage f = DetectDamage(d, cv::Mat(), scene.geometry, DamageOptions());
+  ASSERT_EQ(f.instances.size(), 1u);  // only the pothole
+  EXPECT_NEAR(f.instances[0].max_depth_m, 0.06, 0.01);
+  EXPECT_GT(cv::countNonZero(f.relief.obstacle_mask), 10000);
+  EXPECT_EQ(cv::countNonZero((f.labels != 0) & f.relief.obstacle_mask), 0);
+}
+
+TEST(RoadSurface, TooFewPoints) {
+  SyntheticRoadScene scene;
+  EXPECT_THROW(FitRoadSurface(cv::Mat::zeros(100, 100, CV_32F), scene.geometry, RoadModelOptions()),
+               std::invalid_argument);
+  EXPECT_THROW(FitRoadSurface(cv::Mat::ones(100, 100, CV_32F), StereoGeometry{}, RoadModelOptions()),
+               std::invalid_argument);
+  RoadModelOptions bad;
+  bad.obstacle_height_m = 0.01;  // below the inlier band
+  EXPECT_THROW(bad.Check(), OptionError);
+}
+
+}  // namespace
+}  // namespace rs

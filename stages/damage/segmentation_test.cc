@@ -1,0 +1,109 @@
+#include "stages/damage/segmentation.h"
+
+#include "stages/damage/damage_eval.h"
+
+#include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <random>
+#include <string>
+
+namespace rs {
+namespace {
+
+std::filesystem::path DataRoot() {
+  const char* env = std::getenv("ROADSURVEY_DATA");
+  return env ? std::filesystem::path(env) : std::filesystem::path(ROADSURVEY_DATA_DEFAULT);
+}
+
+// Flat noisy road at `level` with two bowls below it; returns truth mask via `truth`.
+cv::Mat SyntheticRelief(int depth, double level, double sigma, double scale, cv::Mat* truth) {
+  cv::Mat f(300, 400, CV_32F);
+  std::mt19937 rng(7);
+  std::normal_distribution<float> noise(0.f, static_cast<float>(sigma));
+  *truth = cv::Mat::zeros(f.size(), CV_8U);
+  for (int v = 0; v < f.rows; ++v)
+    for (int u = 0; u < f.cols; ++u) {
+      double x = level + noise(rng);
+      const double r1 = std::hypot(u - 100, v - 150) / 40.0, r2 = std::hypot(u - 290, v - 120) / 30.0;
+      if (r1 < 1) x -= 40 * sigma * (1 - r1 * r1), truth->at<uchar>(v, u) = r1 < 0.9 ? 255 : 0;
+      if (r2 < 1) x -= 25 * sigma * (1 - r2 * r2), truth->at<uchar>(v, u) = r2 < 0.9 ? 255 : 0;
+      f.at<float>(v, u) = static_cast<float>(x * scale);
+    }
+  cv::Mat out;
+  f.convertTo(out, depth);
+  return out;
+}
+
+TEST(ReliefScale, Nominal) {
+  cv::Mat truth;
+  for (int depth : {CV_8U, CV_16U, CV_32F}) {
+    const double scale = depth == CV_8U ? 1.0 : depth == CV_16U ? 250.0 : 0.01;
+    const cv::Mat img = SyntheticRelief(depth, 200, 2.0, scale, &truth);
+    const ReliefScale s = EstimateReliefScale(ToRelief(img));
+    // Level within 0.5σ and σ within 10 % of truth (8-bit quantisation included).
+    EXPECT_NEAR(s.road_level, 200 * scale, 0.5 * 2.0 * scale) << depth;
+    EXPECT_NEAR(s.sigma, 2.0 * scale, 0.1 * 2.0 * scale) << depth;
+  }
+}
+
+TEST(SegmentDepressions, Nominal) {
+  cv::Mat truth;
+  for (int depth : {CV_8U, CV_16U, CV_32F}) {
+    const double scale = depth == CV_8U ? 1.0 : depth == CV_16U ? 250.0 : 0.01;
+    const cv::Mat img = SyntheticRelief(depth, 200, 2.0, scale, &truth);
+    SegmentOptions o;
+    o.min_area_px = 100;
+    const DepressionSegmentation seg = SegmentDepressions(ToRelief(img), o);
+    EXPECT_EQ(seg.count, 2) << depth;
+    const PixelMetrics m = ComparePixels(seg.labels, truth);
+    EXPECT_GT(m.f1, 0.85) << depth;
+  }
+}
+
+TEST(SegmentDepressions, FlatRoadHasNoDamage) {
+  cv::Mat f(200, 300, CV_32F);
+  cv::randn(f, 30.0, 0.3);
+  const DepressionSegmentation seg = SegmentDepressions(ToRelief(f), SegmentOptions());
+  EXPECT_EQ(seg.count, 0);
+}
+
+TEST(SegmentDepressions, RejectsMultiChannel) {
+  EXPECT_THROW(ToRelief(cv::Mat(10, 10, CV_8UC3, cv::Scalar::all(1))), std::invalid_argument);
+  EXPECT_THROW(ToRelief(cv::Mat()), std::invalid_argument);
+  EXPECT_THROW(EstimateReliefScale(ToRelief(cv::Mat::zeros(20, 20, CV_16U))), std::invalid_argument);
+}
+
+// fan2019 dataset3: the authors' transformed disparity (16-bit, scale undocumented) against
+// their pixel labels. Done criterion: pooled pixel F1 ≥ 0.90.
+TEST(SegmentDepressions, Fan2019Dataset3) {
+  const auto dir = DataRoot() / "pothole_stereo_fan2019" / "dataset3";
+  if (!std::filesystem::exists(dir / "disp_tg")) GTEST_SKIP() << "no fan2019 data at " << dir;
+  PixelMetrics overall;
+  for (int i = 1; i <= 5; ++i) {
+    char name[16];
+    std::snprintf(name, sizeof name, "%02d.png", i);
+    const cv::Mat disp = cv::imread((dir / "disp_tg" / name).string(), cv::IMREAD_UNCHANGED);
+    const cv::Mat label = cv::imread((dir / "label" / name).string(), cv::IMREAD_GRAYSCALE);
+    ASSERT_FALSE(disp.empty());
+    ASSERT_FALSE(label.empty());
+    const DepressionSegmentation seg = SegmentDepressions(ToRelief(disp), SegmentOptions());
+    const PixelMetrics m = ComparePixels(seg.labels, label);
+    std::printf("fan2019 dataset3 %s: instances %d threshold %.1f sigma (level %.0f, sigma %.0f) "
+                "P %.3f R %.3f F1 %.3f IoU %.3f\n",
+                name, seg.count, seg.threshold_sigma, seg.scale.road_level, seg.scale.sigma, m.precision, m.recall,
+                m.f1, m.iou);
+    EXPECT_GT(m.f1, 0.85) << name;
+    overall.Add(m);
+  }
+  std::printf("fan2019 dataset3 overall: P %.3f R %.3f F1 %.3f IoU %.3f\n", overall.precision, overall.recall,
+              overall.f1, overall.iou);
+  EXPECT_GE(overall.f1, 0.90);
+}
+
+}  // namespace
+}  // namespace rs

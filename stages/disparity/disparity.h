@@ -1,0 +1,98 @@
+#pragma once
+// Dense road disparity: plain SGM or GPT-SGM (road model -> perspective transformation ->
+// SGM over a small residual range -> true and transformed disparity). docs/stages/disparity.md.
+
+#include <opencv2/core/mat.hpp>
+
+#include "stages/disparity/road_model.h"
+#include "stages/disparity/sgm.h"
+
+namespace rs {
+
+/// Which matcher ComputeDisparity runs.
+enum class DisparityMethod {
+  kSgm,     ///< SGM over [min_disparity, min_disparity + num_disparities)
+  kGptSgm,  ///< road model + perspective transformation + SGM over gpt_num_disparities
+};
+
+/// Parameters of the disparity computation. Defaults suit 8-bit rectified road imagery.
+struct DisparityParams {
+  DisparityMethod method = DisparityMethod::kGptSgm;  ///< matcher
+  int min_disparity = 0;      ///< plain SGM (and GPT fallback): smallest disparity, px
+  int num_disparities = 128;  ///< plain SGM (and GPT fallback): number of disparities, 1..1024
+
+  int census_width = 9;    ///< census window width, odd; width*height <= 65
+  int census_height = 7;   ///< census window height, odd
+  int ad_weight = 0;       ///< weight of the truncated absolute-difference term (0 = census only)
+  int ad_truncation = 20;  ///< truncation of |IL - IR|, grey levels
+  int num_paths = 4;       ///< SGM aggregation paths: 4 (horizontal + vertical; default, ~half the cost) or 8
+  int p1 = 10;             ///< SGM penalty for +-1 px disparity changes
+  int p2 = 120;            ///< SGM penalty for larger changes; p1 < p2 <= 1900
+  bool adaptive_p2 = true; ///< P2' = max(P1, P2 * g / (|dI| + g)) lets disparity jump at intensity edges
+  int p2_gradient_scale = 16;  ///< g in the adaptive P2, grey levels
+  int uniqueness_ratio = 5;    ///< percent margin the best cost needs over non-neighbouring ones
+  SubpixelMode subpixel = SubpixelMode::kEquiangular;  ///< sub-pixel refinement
+  int lr_max_diff = 1;         ///< left-right consistency tolerance, px; < 0 disables
+  int speckle_window_size = 100;     ///< drop 4-connected regions (|step| <= speckle_max_diff_px) smaller than this; 0 = off
+  double speckle_max_diff_px = 1.0;  ///< disparity step allowed inside a speckle region, px
+  bool median = true;                ///< 3x3 median over valid neighbours (invalid pixels stay invalid)
+
+  int gpt_num_disparities = 32;  ///< GPT-SGM residual search range, px (road residual + damage depth)
+  double gpt_delta_px = 8;       ///< delta: residual disparity of the road's row minimum; damage down to -delta fits
+  double gpt_headroom_px = 8;    ///< range kept above the road's largest residual (obstacles, kerbs)
+  /// Widen gpt_num_disparities when delta + road span along a row + headroom exceeds it (strong roll).
+  bool gpt_expand_range = true;
+  /// true: warp the target by the exact sub-pixel kappa (MISSION eq. 1, linear interpolation);
+  /// false: shift rows by floor(kappa) inside SGM (no resampling).
+  bool gpt_subpixel_warp = true;
+  /// Safeguard against a wrong road model (a non-road plane, obstacles): when fewer than this share
+  /// of the pixels whose road point is visible in the right view get a valid GPT-SGM disparity,
+  /// plain SGM is run instead (fell_back = true). 0 disables.
+  double gpt_min_valid_fraction = 0.8;
+  RoadFitOptions road;  ///< sparse matching and robust road-model fit
+
+  /// Throws std::invalid_argument naming the rule broken, e.g. "disparity.p2 = 5 violates p2 > p1 (p1 = 8)".
+  void Check() const;
+  /// The SGM parameters for a run over [min_d, min_d + num_d).
+  SgmParams ToSgm(int min_d, int num_d) const;
+};
+
+/// Wall times of the steps, ms.
+struct DisparityTimings {
+  double road_model_ms = 0;   ///< sparse matching + robust fit (GPT) or dense fit (SGM)
+  double warp_ms = 0;         ///< kappa + target warp
+  double census_ms = 0;       ///< both census transforms
+  double aggregation_ms = 0;  ///< cost + path aggregation
+  double wta_ms = 0;          ///< winner-takes-all, uniqueness, sub-pixel, left-right check
+  double postprocess_ms = 0;  ///< speckle filter + median
+  double transform_ms = 0;    ///< true and transformed disparity maps
+  double total_ms = 0;        ///< whole ComputeDisparity call
+};
+
+/// Output of ComputeDisparity.
+struct DisparityResult {
+  cv::Mat disparity;    ///< true disparity, CV_32F px, left view; 0 where invalid
+  cv::Mat transformed;  ///< transformed disparity d - road(u, v) + delta, CV_32F; 0 where invalid or no reliable road model
+  cv::Mat valid;        ///< CV_8U, 255 where disparity is valid
+  RoadModel road;       ///< road model used (GPT) or fitted to the dense result (SGM)
+  DisparityMethod method_used = DisparityMethod::kSgm;  ///< kSgm also when GPT fell back
+  bool fell_back = false;   ///< GPT requested but road model unreliable -> plain SGM over the wide range
+  int num_disparities = 0;  ///< disparities searched per pixel
+  double valid_fraction = 0;  ///< share of valid pixels
+  DisparityTimings timings;
+};
+
+/// Computes the dense disparity of a rectified 8-bit grey pair (left = reference).
+/// `prior`: the previous frame's road model, seeds and validates the robust fit.
+/// Throws std::invalid_argument for bad parameters or images.
+DisparityResult ComputeDisparity(const cv::Mat& left_gray8, const cv::Mat& right_gray8, const DisparityParams& params,
+                                 const RoadModel* prior = nullptr);
+
+/// Drops 4-connected regions of valid pixels (neighbour steps <= max_diff_px) with fewer than
+/// max_size pixels; sets their disparity to 0 and validity to 0.
+void FilterSpeckles(cv::Mat* disparity, cv::Mat* valid, int max_size, double max_diff_px);
+
+/// 3x3 median over valid neighbours of each valid pixel (lower median for even counts).
+void MedianValid3x3(cv::Mat* disparity, const cv::Mat& valid);
+
+}  // namespace rs

@@ -1,0 +1,211 @@
+#include "stages/disparity/disparity.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <stdexcept>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "stages/disparity/disparity_eval.h"
+#include "stages/disparity/disparity_io.h"
+
+namespace rs {
+namespace {
+
+const StereoPairWithTruth& Road720() {
+  static const StereoPairWithTruth p = MakeSyntheticRoadPair(SyntheticRoadOptions{});
+  return p;
+}
+
+StereoPairWithTruth SmallRoad() {
+  SyntheticRoadOptions o;
+  o.width = 480, o.height = 270, o.c0 = 14, o.cu = -0.01, o.cv = 0.05, o.pothole_u = 260, o.pothole_v = 190,
+  o.pothole_radius_px = 40, o.pothole_depth_px = 4;
+  return MakeSyntheticRoadPair(o);
+}
+
+TEST(Disparity, Nominal) {
+  const auto& p = Road720();
+  DisparityParams params;  // GPT-SGM defaults
+  const DisparityResult r = ComputeDisparity(p.left, p.right, params);
+  ASSERT_EQ(r.method_used, DisparityMethod::kGptSgm);
+  EXPECT_FALSE(r.fell_back);
+  EXPECT_TRUE(r.road.reliable);
+  EXPECT_LE(r.num_disparities, 64);
+  const DisparityMetrics road = EvaluateDisparity(r.disparity, r.valid, p.gt, p.road);
+  EXPECT_LE(road.d1_est, 0.01);  // D1 on road <= 1 %
+  EXPECT_GE(road.density, 0.95);
+  EXPECT_LT(road.epe, 0.3);
+  // Transformed disparity (eq. 5): road ~ delta, pothole centre ~ delta - depth.
+  EXPECT_NEAR(r.transformed.at<float>(520, 700), params.gpt_delta_px - 5.0, 0.3);
+  EXPECT_NEAR(r.transformed.at<float>(300, 1200), params.gpt_delta_px, 0.3);
+  EXPECT_NEAR(r.transformed.at<float>(100, 100), params.gpt_delta_px, 0.3);
+  std::printf("GPT-SGM 1280x720: D1 %.3f %%, density %.1f %%, EPE %.3f px, %d disparities, %.1f ms\n", 100 * road.d1_est,
+              100 * road.density, road.epe, r.num_disparities, r.timings.total_ms);
+}
+
+TEST(Disparity, GptIntegerRowShift) {
+  const auto p = SmallRoad();
+  DisparityParams params;
+  params.gpt_subpixel_warp = false;
+  params.gpt_num_disparities = 32;
+  params.gpt_delta_px = 8;
+  params.road.min_inliers = 30;
+  const DisparityResult r = ComputeDisparity(p.left, p.right, params);
+  ASSERT_EQ(r.method_used, DisparityMethod::kGptSgm);
+  const DisparityMetrics road = EvaluateDisparity(r.disparity, r.valid, p.gt, p.road);
+  EXPECT_LE(road.d1_est, 0.01);
+  EXPECT_GE(road.density, 0.9);
+}
+
+TEST(Disparity, PlainSgm) {
+  const auto p = SmallRoad();
+  DisparityParams params;
+  params.method = DisparityMethod::kSgm;
+  params.num_disparities = 48;
+  const DisparityResult r = ComputeDisparity(p.left, p.right, params);
+  EXPECT_EQ(r.method_used, DisparityMethod::kSgm);
+  const DisparityMetrics road = EvaluateDisparity(r.disparity, r.valid, p.gt, p.road);
+  EXPECT_LE(road.d1_est, 0.01);
+  EXPECT_GE(road.density, 0.9);
+  ASSERT_TRUE(r.road.reliable);  // fitted to the dense result
+  EXPECT_NEAR(r.road.At(0, 0), 14, 0.2);
+}
+
+TEST(Disparity, UnreliableRoadFallsBack) {
+  const auto p = SmallRoad();
+  DisparityParams params;
+  params.num_disparities = 48;
+  params.road.min_inliers = 100000;  // as if flying too high for enough keypoints
+  const DisparityResult r = ComputeDisparity(p.left, p.right, params);
+  EXPECT_TRUE(r.fell_back);
+  EXPECT_EQ(r.method_used, DisparityMethod::kSgm);
+  EXPECT_EQ(r.num_disparities, 48);
+  EXPECT_LE(EvaluateDisparity(r.disparity, r.valid, p.gt, p.road).d1_est, 0.01);
+}
+
+TEST(Disparity, WrongRoadModelFallsBack) {
+  // Top 35 % of the rows: a high-contrast plane 20 px nearer than the road (say a lorry's flank),
+  // which wins the keypoints; the low-contrast road below then lies outside GPT's small range,
+  // the valid share collapses and plain SGM takes over.
+  auto road = SmallRoad();
+  SyntheticRoadOptions o;
+  o.width = 480, o.height = 270, o.c0 = 34, o.cu = -0.01, o.cv = 0.05, o.pothole_radius_px = 1, o.seed = 11;
+  const auto flank = MakeSyntheticRoadPair(o);
+  cv::Mat l, r;
+  road.left.convertTo(l, CV_8U, 0.25, 96);
+  road.right.convertTo(r, CV_8U, 0.25, 96);
+  const int rows = 95;
+  flank.left.rowRange(0, rows).copyTo(l.rowRange(0, rows));
+  flank.right.rowRange(0, rows).copyTo(r.rowRange(0, rows));
+  DisparityParams params;
+  params.num_disparities = 64;
+  params.road.min_inliers = 20;
+  const DisparityResult r_out = ComputeDisparity(l, r, params);
+  EXPECT_TRUE(r_out.fell_back);
+  EXPECT_EQ(r_out.method_used, DisparityMethod::kSgm);
+  cv::Mat region = road.road.clone();
+  region.rowRange(0, rows).setTo(0);
+  EXPECT_LE(EvaluateDisparity(r_out.disparity, r_out.valid, road.gt, region).d1_est, 0.02);
+  params.gpt_min_valid_fraction = 0;  // without the safeguard the road is lost
+  const DisparityResult g = ComputeDisparity(l, r, params);
+  EXPECT_FALSE(g.fell_back);
+  EXPECT_LT(EvaluateDisparity(g.disparity, g.valid, road.gt, region).density, 0.5);
+}
+
+TEST(Disparity, PriorModel) {
+  const auto p = SmallRoad();
+  DisparityParams params;
+  params.road.min_inliers = 30;
+  const DisparityResult first = ComputeDisparity(p.left, p.right, params);
+  ASSERT_TRUE(first.road.reliable);
+  const DisparityResult second = ComputeDisparity(p.left, p.right, params, &first.road);
+  EXPECT_TRUE(second.road.reliable);
+  EXPECT_NEAR(second.road.At(100, 100), first.road.At(100, 100), 0.05);
+}
+
+// Real asphalt (Fan et al. 2021, model3 pair 3 at half size): no truth disparity, so GPT-SGM is
+// checked against plain SGM over the full range, an independent search on the unwarped pair.
+TEST(Disparity, RealRoadAgreesWithPlainSgm) {
+  const char* env = std::getenv("ROADSURVEY_DATA");
+  const std::string dir = std::string(env ? env : ROADSURVEY_DATA_DEFAULT) + "/pothole_recon_fan2021/model3";
+  cv::Mat l = cv::imread(dir + "/left images/L3.png", cv::IMREAD_GRAYSCALE);
+  cv::Mat r = cv::imread(dir + "/right images/R3.png", cv::IMREAD_GRAYSCALE);
+  if (l.empty() || r.empty()) GTEST_SKIP() << "no pothole_recon_fan2021 data under " << dir << " (set ROADSURVEY_DATA)";
+  cv::resize(l, l, cv::Size(), 0.5, 0.5, cv::INTER_AREA);
+  cv::resize(r, r, cv::Size(), 0.5, 0.5, cv::INTER_AREA);
+  DisparityParams gpt;
+  gpt.gpt_delta_px = 20, gpt.gpt_num_disparities = 48;
+  const DisparityResult a = ComputeDisparity(l, r, gpt);
+  ASSERT_EQ(a.method_used, DisparityMethod::kGptSgm);
+  EXPECT_GT(a.road.num_inliers, 300);
+  EXPECT_LT(a.road.residual_rms_px, 0.6);
+  DisparityParams plain;
+  plain.method = DisparityMethod::kSgm;
+  plain.min_disparity = 48, plain.num_disparities = 144;  // covers 66..170 px seen on this pair
+  const DisparityResult b = ComputeDisparity(l, r, plain);
+  int64_t both = 0, agree = 0, visible = 0, visible_valid = 0;
+  for (int v = 0; v < l.rows; ++v)
+    for (int u = 0; u < l.cols; ++u) {
+      if (u - a.road.At(u, v) >= 0) ++visible, visible_valid += a.valid.at<uint8_t>(v, u) != 0;
+      if (!a.valid.at<uint8_t>(v, u) || !b.valid.at<uint8_t>(v, u)) continue;
+      ++both;
+      agree += std::abs(a.disparity.at<float>(v, u) - b.disparity.at<float>(v, u)) <= 1.0f;
+    }
+  EXPECT_GT(double(visible_valid) / visible, 0.97);  // density on road visible in both views
+  EXPECT_GT(double(agree) / both, 0.98);
+  // Undamaged road: the transformed disparity sits at delta (median over valid pixels).
+  std::vector<float> t;
+  for (int v = 0; v < l.rows / 2; ++v)  // upper half: no pothole there
+    for (int u = 0; u < l.cols; ++u)
+      if (a.valid.at<uint8_t>(v, u)) t.push_back(a.transformed.at<float>(v, u));
+  std::nth_element(t.begin(), t.begin() + t.size() / 2, t.end());
+  EXPECT_NEAR(t[t.size() / 2], 20.0, 0.5);
+}
+
+TEST(Disparity, BadParams) {
+  DisparityParams params;
+  params.p1 = 8;
+  params.p2 = 5;
+  try {
+    params.Check();
+    FAIL();
+  } catch (const std::invalid_argument& e) {
+    EXPECT_STREQ(e.what(), "disparity.p2 = 5 violates p2 > p1 (p1 = 8)");
+  }
+  params = DisparityParams{};
+  params.gpt_delta_px = 60;
+  EXPECT_THROW(params.Check(), std::invalid_argument);
+  params = DisparityParams{};
+  params.census_width = 11;
+  EXPECT_THROW(params.Check(), std::invalid_argument);
+  cv::Mat a(20, 20, CV_8UC3);
+  EXPECT_THROW(ComputeDisparity(a, a, DisparityParams{}), std::invalid_argument);
+}
+
+TEST(Disparity, KittiPngRoundTrip) {
+  cv::Mat d(3, 4, CV_32F, cv::Scalar(0)), valid(3, 4, CV_8U, cv::Scalar(255));
+  d.at<float>(0, 0) = 12.3456f, d.at<float>(1, 2) = 200.0f, d.at<float>(2, 3) = 300.0f;
+  valid.at<uint8_t>(0, 1) = 0;
+  const auto path = (std::filesystem::temp_directory_path() / "rs_disparity_kitti_test.png").string();
+  WriteKittiDisparityPng(path, d, valid);
+  cv::Mat back, back_valid;
+  FromKittiDisparity16(cv::imread(path, cv::IMREAD_UNCHANGED), &back, &back_valid);
+  std::filesystem::remove(path);
+  EXPECT_NEAR(back.at<float>(0, 0), 12.3456f, 1.0 / 512);
+  EXPECT_EQ(ToKittiDisparity16(d, valid).at<uint16_t>(0, 0), 3160);  // round(12.3456 * 256)
+  EXPECT_NEAR(back.at<float>(1, 2), 200.0f, 1e-6);
+  EXPECT_NEAR(back.at<float>(2, 3), 65535.0 / 256, 1e-6);  // clamped to 16 bits
+  EXPECT_EQ(back_valid.at<uint8_t>(0, 1), 0);  // invalid
+  EXPECT_EQ(back_valid.at<uint8_t>(1, 1), 0);  // d = 0 cannot be stored
+  const cv::Mat c = ColorizeDisparity(d, valid, 0, 255);
+  EXPECT_EQ(c.rows, 3);
+  EXPECT_EQ(c.at<cv::Vec3b>(0, 1), cv::Vec3b(0, 0, 0));
+}
+
+}  // namespace
+}  // namespace rs

@@ -1,0 +1,124 @@
+#include "stages/disparity/sgm.h"
+
+#include <cstring>
+#include <random>
+#include <stdexcept>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
+
+namespace rs {
+namespace {
+
+// Random texture, smoothed, right view shifted by a disparity that varies with the row.
+void MakePair(int W, int H, int seed, cv::Mat* left, cv::Mat* right) {
+  cv::Mat noise(H, W + 64, CV_8U);
+  cv::RNG rng(seed);
+  rng.fill(noise, cv::RNG::UNIFORM, 0, 256);
+  cv::GaussianBlur(noise, noise, cv::Size(0, 0), 1.2);
+  *left = noise(cv::Rect(0, 0, W, H)).clone();
+  *right = cv::Mat(H, W, CV_8U);
+  for (int v = 0; v < H; ++v)
+    for (int u = 0; u < W; ++u) {
+      const int d = 3 + v * 7 / H + (u > W / 2 ? 2 : 0);
+      right->at<uint8_t>(v, u) = noise.at<uint8_t>(v, std::min(u + d, W + 63));
+    }
+  cv::Mat n(H, W, CV_8U);
+  rng.fill(n, cv::RNG::UNIFORM, 0, 6);
+  *right += n;
+}
+
+void ExpectIdentical(const SgmOutput& a, const SgmOutput& b) {
+  ASSERT_EQ(a.disparity.size(), b.disparity.size());
+  int diff = 0, valid = 0;
+  for (int v = 0; v < a.disparity.rows; ++v)
+    for (int u = 0; u < a.disparity.cols; ++u) {
+      const float x = a.disparity.at<float>(v, u), y = b.disparity.at<float>(v, u);
+      if (std::memcmp(&x, &y, sizeof(float)) != 0 || a.valid.at<uint8_t>(v, u) != b.valid.at<uint8_t>(v, u)) ++diff;
+      valid += a.valid.at<uint8_t>(v, u) != 0;
+    }
+  EXPECT_EQ(diff, 0);
+  EXPECT_GT(valid, a.disparity.total() / 4);  // a non-trivial comparison
+}
+
+TEST(Sgm, MatchesReferenceAtAwkwardSizes) {
+  struct Case {
+    int W, H, min_d, num_d, paths, cw, ch, ad;
+    SubpixelMode sub;
+  };
+  const Case cases[] = {
+      {37, 23, 0, 13, 8, 9, 7, 0, SubpixelMode::kEquiangular},
+      {41, 19, 2, 17, 4, 5, 5, 1, SubpixelMode::kParabola},
+      {33, 29, -3, 15, 8, 7, 5, 2, SubpixelMode::kNone},
+      {50, 31, 1, 33, 8, 9, 7, 1, SubpixelMode::kParabola},
+  };
+  for (const Case& c : cases) {
+    cv::Mat l, r;
+    MakePair(c.W, c.H, c.W, &l, &r);
+    SgmParams p;
+    p.min_disparity = c.min_d;
+    p.num_disparities = c.num_d;
+    p.num_paths = c.paths;
+    p.census_width = c.cw;
+    p.census_height = c.ch;
+    p.ad_weight = c.ad;
+    p.subpixel = c.sub;
+    SCOPED_TRACE(testing::Message() << c.W << "x" << c.H << " D=" << c.num_d);
+    ExpectIdentical(ComputeSgm(l, r, p), ComputeSgmReference(l, r, p));
+  }
+}
+
+TEST(Sgm, MatchesReference631x479WithRowOffset) {
+  cv::Mat l, r;
+  MakePair(631, 479, 5, &l, &r);
+  SgmParams p;
+  p.num_disparities = 7;  // odd count, small range followed by the per-row offset
+  p.min_disparity = -1;
+  p.row_offset.resize(479);
+  for (int v = 0; v < 479; ++v) p.row_offset[v] = 1 + v * 7 / 479;
+  ExpectIdentical(ComputeSgm(l, r, p), ComputeSgmReference(l, r, p));
+}
+
+TEST(Sgm, Nominal) {
+  cv::Mat l, r;
+  MakePair(160, 90, 3, &l, &r);
+  SgmParams p;
+  p.num_disparities = 16;
+  const SgmOutput o = ComputeSgm(l, r, p);
+  int good = 0, valid = 0;
+  for (int v = 0; v < 90; ++v)
+    for (int u = 12; u < 160; ++u) {
+      if (!o.valid.at<uint8_t>(v, u)) continue;
+      ++valid;
+      const int d = 3 + v * 7 / 90 + (u > 80 ? 2 : 0);
+      good += std::abs(o.disparity.at<float>(v, u) - d) < 1.0f;
+    }
+  EXPECT_GT(valid, 0.8 * 148 * 90);
+  EXPECT_GT(good, 0.95 * valid);
+}
+
+TEST(Sgm, BadParams) {
+  SgmParams p;
+  p.p2 = 5;
+  p.p1 = 8;
+  try {
+    p.Check(10);
+    FAIL();
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("p2 = 5 violates p2 > p1 (p1 = 8)"), std::string::npos);
+  }
+  p = SgmParams{};
+  p.census_width = 4;
+  EXPECT_THROW(p.Check(10), std::invalid_argument);
+  p = SgmParams{};
+  p.row_offset = {1, 2};
+  EXPECT_THROW(p.Check(10), std::invalid_argument);
+  p = SgmParams{};
+  p.num_paths = 5;
+  EXPECT_THROW(p.Check(10), std::invalid_argument);
+  cv::Mat a(10, 10, CV_8U, cv::Scalar(0)), b(10, 11, CV_8U, cv::Scalar(0));
+  EXPECT_THROW(ComputeSgm(a, b, SgmParams{}), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace rs

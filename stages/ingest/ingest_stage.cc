@@ -1,0 +1,274 @@
+#include "stages/ingest/ingest_stage.h"
+
+#include <fmt/format.h>
+
+#include <chrono>
+#include <fstream>
+#include <opencv2/imgcodecs.hpp>
+
+#include "formats/flight_log/flight_log.h"
+#include "formats/flightlog/track_csv.h"
+#include "formats/stereo/calibration_check.h"
+#include "formats/stereo/calibration_readers.h"
+#include "formats/stereo/calibration_yaml.h"
+#include "formats/stereo/image_io.h"
+#include "formats/stereo/rectifier.h"
+#include "formats/stereo/stereo_source.h"
+#include "stages/ingest/time_alignment.h"
+#include "survey/atomic_file.h"
+
+namespace rs {
+namespace fs = std::filesystem;
+namespace {
+
+// The calibration the survey names, else the one the layout carries.
+StereoCalibration LoadCalibration(const SurveyFile& survey, const StereoSource& source) {
+  if (const auto path = survey.InputPath("calibration")) return ReadStereoCalibration(*path);
+  if (source.calibration()) return *source.calibration();
+  throw InputError(InputLocation::File(survey.path.string()),
+                   "no calibration: the frames folder carries none, so set inputs.calibration.path");
+}
+
+void CheckFrameSize(const cv::Mat& image, const CameraIntrinsics& cam, const fs::path& path) {
+  if (cam.width > 0 && (image.cols != cam.width || image.rows != cam.height))
+    throw InputError(InputLocation::File(path.string()),
+                     fmt::format("image is {}x{}, calibration says {}x{}", image.cols, image.rows, cam.width,
+                                 cam.height));
+}
+
+int64_t Seconds(double s) { return static_cast<int64_t>(std::llround(s * 1e9)); }
+
+}  // namespace
+
+void IngestOptions::Check() const {}
+
+const OptionTable<IngestOptions>& IngestOptions::Table() {
+  static const auto table =
+      OptionTable<IngestOptions>()
+          .Add("check_images", &IngestOptions::check_images, "decode every image up front to find corrupt frames")
+          .Add("skip_bad_frames", &IngestOptions::skip_bad_frames,
+               "skip and count unreadable frames instead of failing the stage")
+          .Add("rectify_alpha", &IngestOptions::rectify_alpha,
+               "rectification free scaling for raw pairs: 0 keeps only valid pixels, 1 keeps every raw pixel")
+          .Min(0)
+          .Max(1)
+          .Add("estimate_clock_offset", &IngestOptions::estimate_clock_offset,
+               "estimate the camera-log clock offset from the log's camera trigger events when it has them")
+          .Add("max_log_gap_s", &IngestOptions::max_log_gap_s,
+               "fixes further apart than this leave the frames between them without a prior", "s")
+          .Above(0)
+          .Add("max_speed_m_s", &IngestOptions::max_speed_m_s,
+               "consecutive fixes implying a higher speed are reported as implausible jumps", "m/s")
+          .Above(0)
+          .Add("min_in_span_fraction", &IngestOptions::min_in_span_fraction,
+               "fail when a smaller fraction of frames falls inside the flight log's time span (wrong log or offset)")
+          .Min(0)
+          .Max(1);
+  return table;
+}
+
+StageInfo IngestStage::Info() {
+  StageInfo info;
+  info.name = "ingest";
+  info.version = 1;
+  info.doc = "Lists stereo frames, checks and rectifies them, reads the flight log and gives each frame a "
+             "time-aligned GNSS/attitude prior.";
+  info.inputs = {kSurveyInputs};
+  info.outputs = {"frames", "calibration", "priors"};
+  info.published = {{"ingest.json", "ingest.json"}};
+  info.per_frame = true;
+  return info;
+}
+
+void IngestStage::Run(StageContext& ctx, const IngestOptions& o) const {
+  const SurveyFile& survey = ctx.survey();
+  const auto t0 = std::chrono::steady_clock::now();
+  const fs::path frames_path = *survey.InputPath("frames");
+  const StereoSource source =
+      OpenStereoSource(frames_path, survey.inputs["frames"].value("layout", std::string("auto")));
+  for (const auto& w : source.warnings().items()) ctx.Warn(w.ToString());
+  if (source.timestamps_synthesized()) ctx.Warn("frame times synthesized from the nominal frame rate");
+
+  const StereoCalibration calib = LoadCalibration(survey, source);
+  CheckStereoCalibration(calib, calib.source_path);
+  const bool raw = !calib.rectified;
+  std::optional<StereoRectifier> rectifier;
+  if (raw) rectifier = StereoRectifier::LoadOrCreate(calib, ctx.out_dir() / "rectification.bin", o.rectify_alpha);
+  const StereoCalibration rectified = raw ? rectifier->rectified() : calib;
+  WriteCalibrationYaml(ctx.out_dir() / "calibration.yaml", rectified);
+
+  std::vector<FrameRecord> frames;
+  for (size_t i = 0; i < source.frames().size(); ++i) {
+    const StereoFrame& f = source.frames()[i];
+    frames.push_back({FrameId{static_cast<int64_t>(i)}, f.t_ns, f.left, f.right});
+  }
+  ctx.Time("list", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+
+  // Per frame: decode (and rectify) both images. Rectified pairs are written
+  // into the frame's folder; already rectified sources are referenced in place.
+  ctx.ForEachFrame(
+      frames,
+      [&](const FrameRecord& f, const fs::path& tmp) {
+        FrameOutcome out;
+        if (!o.check_images && !raw) return out;
+        const cv::Mat left = LoadImageRaw(f.left), right = LoadImageRaw(f.right);
+        CheckFrameSize(left, calib.left, f.left);
+        CheckFrameSize(right, calib.right, f.right);
+        if (raw) {
+          cv::Mat left_rect, right_rect;
+          rectifier->Rectify(left, right, &left_rect, &right_rect);
+          if (!cv::imwrite((tmp / "left.png").string(), left_rect) ||
+              !cv::imwrite((tmp / "right.png").string(), right_rect))
+            throw std::runtime_error("cannot write rectified images to " + tmp.string());
+        }
+        out.counts["images_checked"] = 2;
+        return out;
+      },
+      o.skip_bad_frames);
+
+  // The frame list downstream stages read: skipped frames are left out (ids keep their values).
+  std::vector<FrameRecord> good;
+  for (auto f : frames) {
+    const fs::path dir = ctx.FrameDir(f.id);
+    if (fs::exists(dir / "skipped.json")) continue;
+    if (raw) {
+      f.left = dir / "left.png";
+      f.right = dir / "right.png";
+    }
+    good.push_back(f);
+  }
+  WriteFrameIndex(ctx.out_dir() / "frames.csv", good);
+
+  nlohmann::json report = {{"layout", ToString(source.layout())},
+                           {"frames_folder", frames_path.string()},
+                           {"frames_listed", frames.size()},
+                           {"frames_usable", good.size()},
+                           {"calibration", {{"source", calib.source_path},
+                                            {"raw", raw},
+                                            {"fx_px", rectified.left.fx},
+                                            {"baseline_m", rectified.BaselineM()},
+                                            {"width", rectified.left.width},
+                                            {"height", rectified.left.height}}}};
+
+  // Flight log: normalized track, clock offset, per-frame priors.
+  std::vector<FramePrior> priors;
+  if (const auto log_path = survey.InputPath("flight_log")) {
+    const auto t1 = std::chrono::steady_clock::now();
+    const auto& log_spec = survey.inputs["flight_log"];
+    const FlightTrack track = ReadFlightLog(*log_path, log_spec.value("format", std::string("auto")));
+    std::ofstream(ctx.out_dir() / "track.csv") << [&] {
+      std::ostringstream ss;
+      WriteTrackCsv(ss, track);
+      return ss.str();
+    }();
+    for (const auto& n : track.notes) ctx.Warn("flight log: " + n);
+    if (track.fixes.empty())
+      throw InputError(InputLocation::File(log_path->string()), "flight log has no GNSS fix");
+
+    const TrackFindings findings = CheckTrack(track, Seconds(o.max_log_gap_s), o.max_speed_m_s);
+    for (const auto& m : findings.messages) ctx.Warn("flight log: " + m);
+
+    int64_t offset_ns = Seconds(log_spec.value("clock_offset_s", 0.0));
+    nlohmann::json offset_report = {{"configured_s", offset_ns * 1e-9}, {"used_s", offset_ns * 1e-9},
+                                    {"method", "configured"}};
+    if (o.estimate_clock_offset) {
+      std::vector<int64_t> times;
+      for (const auto& f : good) times.push_back(f.t_ns);
+      if (const auto est = EstimateClockOffsetFromEvents(times, track.camera_events, offset_ns)) {
+        offset_report["estimate"] = {{"offset_s", est->offset_ns * 1e-9},
+                                     {"spread_s", est->spread_ns * 1e-9},
+                                     {"matched_pairs", est->matched_pairs},
+                                     {"index_shift", est->index_shift},
+                                     {"confident", est->confident},
+                                     {"method", est->method}};
+        if (est->confident) {
+          offset_ns = est->offset_ns;
+          offset_report["used_s"] = offset_ns * 1e-9;
+          offset_report["method"] = est->method;
+        } else {
+          ctx.Warn(fmt::format("clock offset estimate {:.3f} s is not confident (spread {:.3f} s): using the "
+                               "configured {:.3f} s",
+                               est->offset_ns * 1e-9, est->spread_ns * 1e-9, offset_ns * 1e-9));
+        }
+      } else {
+        offset_report["estimate"] = "not possible: the log has too few camera events";
+      }
+    }
+    priors = InterpolatePriors(good, track, offset_ns, Seconds(o.max_log_gap_s));
+    std::map<std::string, int> by_status;
+    for (const auto& p : priors) ++by_status[ToString(p.status)];
+    const double in_span = good.empty() ? 0.0 : double(by_status["ok"] + by_status["in-gap"]) / good.size();
+    if (by_status["outside-span"] > 0)
+      ctx.Warn(fmt::format("{} frame(s) lie outside the flight log's time span: no prior, not extrapolated",
+                           by_status["outside-span"]));
+    if (by_status["in-gap"] > 0)
+      ctx.Warn(fmt::format("{} frame(s) fall in flight log gaps longer than {} s: no prior", by_status["in-gap"],
+                           o.max_log_gap_s));
+    report["flight_log"] = {{"path", log_path->string()},
+                            {"format", track.format},
+                            {"time_base", ToString(track.time_base)},
+                            {"fixes", track.fixes.size()},
+                            {"attitude_samples", track.attitude.size()},
+                            {"camera_events", track.camera_events.size()},
+                            {"altitude_reference", ToString(track.fixes.front().alt_ref)},
+                            {"gaps", findings.gaps},
+                            {"jumps", findings.jumps},
+                            {"clock_offset", offset_report},
+                            {"priors", by_status}};
+    ctx.Count("frames_with_prior", by_status["ok"]);
+    ctx.Time("flight_log", std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count());
+    if (in_span < o.min_in_span_fraction)
+      throw InputError(InputLocation::File(log_path->string()),
+                       fmt::format("only {:.0f}% of frames fall inside the log's time span (ingest.min_in_span_fraction "
+                                   "= {}): wrong log, or a clock offset is missing (inputs.flight_log.clock_offset_s)",
+                                   100 * in_span, o.min_in_span_fraction));
+  } else {
+    for (const auto& f : good) priors.push_back({f.id, f.t_ns, f.t_ns});
+    report["flight_log"] = nullptr;
+  }
+  WriteFramePriors(ctx.out_dir() / "frame_priors.csv", priors);
+  ctx.Count("frames_usable", static_cast<double>(good.size()));
+  WriteJsonAtomic(ctx.out_dir() / "ingest.json", report);
+}
+
+void IngestStage::ValidateInputs(const SurveyFile& survey, const IngestOptions& o, ProblemList& problems) const {
+  const fs::path frames_path = *survey.InputPath("frames");
+  const std::string layout = survey.inputs["frames"].value("layout", std::string("auto"));
+  std::optional<StereoSource> source;
+  try {
+    source = OpenStereoSource(frames_path, layout, &problems);
+  } catch (const InputError& e) {
+    problems.Add(e);
+  }
+  if (source) {
+    try {
+      const StereoCalibration calib = LoadCalibration(survey, *source);
+      CheckStereoCalibration(calib, calib.source_path);
+    } catch (const InputError& e) {
+      problems.Add(e);
+    }
+    if (o.check_images) ValidateStereoFolder(frames_path, layout, &problems);
+  }
+  if (const auto log_path = survey.InputPath("flight_log")) {
+    try {
+      const FlightTrack track = ReadFlightLog(*log_path, survey.inputs["flight_log"].value("format", std::string("auto")));
+      if (track.fixes.empty()) problems.Error(InputLocation::File(log_path->string()), "no GNSS fix in the log");
+      const TrackFindings findings = CheckTrack(track, Seconds(o.max_log_gap_s), o.max_speed_m_s);
+      for (const auto& m : findings.messages) problems.Warning(InputLocation::File(log_path->string()), m);
+      if (source && !track.fixes.empty() && !source->frames().empty()) {
+        const int64_t offset = Seconds(survey.inputs["flight_log"].value("clock_offset_s", 0.0));
+        const int64_t first = source->frames().front().t_ns - offset, last = source->frames().back().t_ns - offset;
+        if (last < track.fixes.front().t_ns || first > track.fixes.back().t_ns)
+          problems.Error(InputLocation::File(log_path->string()),
+                         fmt::format("the frames' time range does not overlap the log's ({} frames from t = {} ns; "
+                                     "log from {} to {} ns): wrong log or missing clock offset",
+                                     source->frames().size(), first, track.fixes.front().t_ns,
+                                     track.fixes.back().t_ns));
+      }
+    } catch (const InputError& e) {
+      problems.Add(e);
+    }
+  }
+}
+
+}  // namespace rs

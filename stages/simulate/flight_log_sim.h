@@ -1,0 +1,33 @@
+#pragma once
+// The simulated flight log: GNSS fixes with white noise and a slowly varying
+// bias, attitude with noise, and camera trigger events, on the log clock (UTC).
+// The camera clock (timestamps.csv) runs clock_offset_s ahead of it.
+
+#include <cstdint>
+#include <iosfwd>
+#include <vector>
+
+#include <GeographicLib/LocalCartesian.hpp>
+
+#include "formats/flight_track.h"
+#include "stages/simulate/flight_path.h"
+#include "stages/simulate/simulation_options.h"
+
+namespace rs::sim {
+
+/// True time (log clock, UTC ns) of frame k.
+int64_t FrameTimeNs(const SimulationOptions& o, int k);
+/// Camera-clock time of frame k: FrameTimeNs + clock_offset_s.
+int64_t CameraTimeNs(const SimulationOptions& o, int k);
+
+/// Flight log covering the frames plus 1 s before and after.
+FlightTrack SimulateFlightLog(const SimulationOptions& o, const FlightPath& path,
+                              const GeographicLib::LocalCartesian& enu);
+
+/// Writes the GNSS fixes as a GPX 1.1 track (ele = ellipsoidal height, time UTC with ms).
+void WriteGpx(std::ostream& out, const FlightTrack& track, const std::string& name);
+
+/// "2023-11-14T22:13:20.125Z"
+std::string IsoTimeUtc(int64_t t_ns);
+
+}  // namespace rs::sim

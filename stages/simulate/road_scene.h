@@ -1,0 +1,159 @@
+#pragma once
+// The simulated world: a curved, sloped, cambered road with kerbs and verges,
+// damage (potholes, cracks, alligator cracking, repair patches) as fine
+// heightfield patches, and obstacles. World frame: local ENU (x east, y north,
+// z up, metres) at the geodetic origin. Road coordinates (s, l): s = arc length
+// along the centreline from its start, l = lateral offset, positive to the left
+// of the direction of increasing s.
+
+#include <cstdint>
+#include <limits>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "stages/simulate/sim_random.h"
+#include "stages/simulate/simulation_options.h"
+
+namespace rs::sim {
+
+/// Centreline geometry: a circular arc (or straight line) with grade and camber.
+class RoadGeometry {
+ public:
+  explicit RoadGeometry(const SimulationOptions& o);
+
+  /// ENU heading of the centreline at s, rad counter-clockwise from east.
+  double HeadingRad(double s) const { return heading0_ + curvature_ * s; }
+  /// World x, y of road point (s, l).
+  Eigen::Vector2d ToWorld(double s, double l) const;
+  /// Road coordinates of world (x, y); optionally the centreline direction (cos, sin of the heading) at s.
+  void ToRoad(double x, double y, double* s, double* l, double* cos_h = nullptr, double* sin_h = nullptr) const;
+  /// d(arc length at offset l)/ds: distances along s shrink by this factor at offset l.
+  double Stretch(double l) const { return 1.0 - curvature_ * l; }
+
+  /// Intact surface height (grade, camber, kerb, verge) and its road-coordinate gradient.
+  double IntactZ(double s, double l, double* dz_ds = nullptr, double* dz_dl = nullptr) const;
+  /// Smooth approximation used to start ray casts: grade and camber only.
+  double SmoothZ(double s, double l) const { return grade_ * s - crossfall_ * std::abs(l); }
+
+  double half_width() const { return half_width_; }
+  double kerb_width() const { return 0.15; }
+  double curvature() const { return curvature_; }
+
+ private:
+  double heading0_, curvature_, grade_, crossfall_, half_width_, kerb_height_;
+  Eigen::Vector2d centre_;  // centre of the arc (unused when straight)
+};
+
+enum class DamageType { kPothole, kCrackLongitudinal, kCrackTransverse, kAlligator, kPatch };
+const char* ToString(DamageType t);
+
+/// One damage with its fine heightfield patch and its true measurements.
+struct Damage {
+  int id = 0;  ///< instance id in masks and GeoJSON (1..N)
+  DamageType type = DamageType::kPothole;
+  /// Outline (polygon, not closed) for areas; centreline polyline for cracks. Road coordinates (s, l).
+  std::vector<Eigen::Vector2d> outline_sl;
+  double width_m = 0;          ///< crack width (cracks, alligator)
+  double length_m = 0;         ///< crack length (cracks)
+  double area_m2 = 0;          ///< pothole/patch/alligator: area inside the outline; cracks: length x width
+  double max_depth_m = 0;      ///< largest height deficit of the heightfield
+  double mean_depth_m = 0;     ///< volume / area of cells with a deficit
+  double volume_m3 = 0;        ///< integral of the height deficit over the surface
+  double mean_diameter_m = 0;  ///< potholes: diameter of the circle of equal area
+  std::string severity;        ///< "L", "M", "H" (ASTM D6433 potholes, FHWA LTPP cracks)
+  std::string severity_standard;
+
+  // Patch grid in road coordinates: cell (i, j) centre = (s0 + (i + .5) res, l0 + (j + .5) res).
+  double s0 = 0, l0 = 0, res = 0.004;
+  int ns = 0, nl = 0;
+  std::vector<float> deficit_m;   ///< height below the intact surface (< 0: raised), per cell, row j major
+  std::vector<float> albedo_mul;  ///< albedo multiplier per cell
+  std::vector<uint8_t> mask;      ///< 1 where the cell belongs to the damage
+  double s_max() const { return s0 + ns * res; }
+  double l_max() const { return l0 + nl * res; }
+};
+
+/// A box (parked car) or vertical cylinder (person).
+struct Obstacle {
+  enum class Kind { kBox, kCylinder } kind = Kind::kBox;
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();  ///< box centre / cylinder base centre, world
+  Eigen::Matrix3d R_world_obj = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d half_size = Eigen::Vector3d::Ones();  ///< box half extents; cylinder (radius, radius, height)
+  float albedo = 0.3f;
+  std::string name;
+};
+
+/// Result of a ray cast.
+struct RayHit {
+  bool hit = false;
+  double t = 0;                  ///< ray parameter (ray direction unit length: metres)
+  Eigen::Vector3d p_world;       ///< hit point
+  float radiance = 0;            ///< shaded brightness in [0, ~1.5] before camera effects
+  uint16_t label = 0;            ///< damage id or 0
+};
+
+/// Parameters that describe the rendered appearance.
+struct Lighting {
+  Eigen::Vector3d sun_world;  ///< unit vector towards the sun
+  double ambient = 0.35;
+  double exposure = 2.0;
+  bool shadows = true;
+};
+
+/// The whole scene. Immutable after construction, safe to query from many threads.
+class RoadScene {
+ public:
+  /// Builds road, damage (placed along [s_view_min, s_view_max]) and obstacles from o.seed.
+  RoadScene(const SimulationOptions& o, double s_view_min, double s_view_max);
+
+  const RoadGeometry& road() const { return road_; }
+  const std::vector<Damage>& damages() const { return damages_; }
+  const std::vector<Obstacle>& obstacles() const { return obstacles_; }
+  const Lighting& lighting() const { return lighting_; }
+
+  /// True surface height at world (x, y) (intact surface minus damage deficit).
+  double HeightAt(double x, double y) const;
+  /// Intact (undamaged) surface height at world (x, y).
+  double IntactHeightAt(double x, double y) const;
+  /// Damage id at world (x, y), 0 if none.
+  int LabelAt(double x, double y) const;
+
+  /// Casts a ray (origin o, unit direction d) against road and obstacles and
+  /// shades the hit. pixel_angle_rad: angular size of a pixel, for texture filtering.
+  /// z_start: surface height to start the search at (NaN: the smooth road under o).
+  RayHit Cast(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double pixel_angle_rad,
+              double z_start = std::numeric_limits<double>::quiet_NaN()) const;
+
+ private:
+  struct SurfaceSample {
+    double z = 0, dz_ds = 0, dz_dl = 0;
+    const Damage* damage = nullptr;
+    double fi = 0, fj = 0;  // continuous cell coordinates inside the damage patch
+  };
+  SurfaceSample Surface(double s, double l) const;
+  const Damage* DamageAt(double s, double l) const;
+  float BaseAlbedo(double s, double l, double footprint_m) const;
+  bool ObstacleHit(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double t_max, double* t,
+                   Eigen::Vector3d* n, const Obstacle** which) const;
+
+  void PlaceDamage(const SimulationOptions& o, double s_min, double s_max);
+  void PlaceObstacles(const SimulationOptions& o, double s_min, double s_max);
+
+  RoadGeometry road_;
+  std::vector<Damage> damages_;
+  std::vector<Obstacle> obstacles_;
+  Lighting lighting_;
+  std::unique_ptr<NoiseTable> noise_;
+  std::vector<Octave> octaves_;
+  // Damage lookup: bins of 1 m along s.
+  double bin_s0_ = 0;
+  std::vector<std::vector<int>> bins_;
+  double dash_ = 3.0, gap_ = 5.0;
+  bool markings_ = true;
+};
+
+}  // namespace rs::sim
