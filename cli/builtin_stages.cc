@@ -1,12 +1,18 @@
 // The stages this program runs, in pipeline order.
 #include "cli/command.h"
+#include "stages/damage/damage_stage.h"
+#include "stages/disparity/disparity_stage.h"
 #include "stages/ingest/ingest_stage.h"
+#include "stages/slam/slam_stage.h"
 #include "survey/stage.h"
 
 namespace rs {
 
 void RegisterBuiltinStages(StageRegistry& registry) {
   registry.Add(std::make_unique<IngestStage>());
+  registry.Add(std::make_unique<DisparityStage>());
+  registry.Add(std::make_unique<DamageStage>());
+  registry.Add(std::make_unique<SlamStage>());
 }
 
 }  // namespace rs

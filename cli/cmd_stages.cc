@@ -53,7 +53,8 @@ Command StagesCommand() {
                 fmt::print("{}", JobGraph::Build(registry).Dot());
                 return kExitOk;
               }
-              for (const Stage* stage : JobGraph::Build(registry).order()) {
+              const JobGraph graph = JobGraph::Build(registry);  // order() refers into it: keep it alive
+              for (const Stage* stage : graph.order()) {
                 if (!args->name.empty() && stage->info().name != args->name) continue;
                 args->markdown ? PrintMarkdown(*stage) : PrintText(*stage);
               }

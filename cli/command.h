@@ -32,6 +32,11 @@ Command StatusCommand();
 Command StagesCommand();
 Command SchemaCommand();
 Command SimulateCommand();
+Command StereoCommand();
+Command SegmentCommand();
+Command EvalCommand();
+Command BenchCommand();
+Command LogCommand();
 
 /// Registers every built-in stage, in pipeline order.
 void RegisterBuiltinStages(StageRegistry& registry);

@@ -14,7 +14,8 @@ namespace rs {
 
 const std::vector<Command>& Commands() {
   static const std::vector<Command> commands = {RunCommand(), ValidateCommand(), StatusCommand(), StagesCommand(),
-                                                SchemaCommand(), SimulateCommand()};
+                                                SchemaCommand(), SimulateCommand(), StereoCommand(),
+                                                SegmentCommand(), EvalCommand(), BenchCommand(), LogCommand()};
   return commands;
 }
 

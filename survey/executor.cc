@@ -35,7 +35,7 @@ std::string SourceKey(const SurveyFile& survey, const std::string& artifact) {
   }
   h.Add(survey.inputs.dump());
   for (const auto& [name, spec] : survey.inputs.items()) {
-    if (const auto p = survey.InputPath(name)) h.Add(name).Add(FingerprintPath(*p));
+    if (const auto p = survey.InputPath(name)) h.Add(name).Add(FingerprintPath(*p, survey.output_dir));
   }
   return h.Hex();
 }
@@ -198,8 +198,12 @@ RunReport RunSurvey(const StageRegistry& registry, const SurveyFile& survey, con
       rec.status = StageStatus::kReused;
       rec.cached = true;
       const auto marker = ReadJsonFile(dir / kMarker);
-      rec.wall_s = marker.value("wall_s", 0.0);
-      rec.summary = StageSummary::FromJson(marker);  // the manifest keeps reporting what the cached run found
+      // The manifest keeps reporting what the cached run found (counts, skips, warnings);
+      // this run computed nothing and took no time.
+      rec.summary = StageSummary::FromJson(marker);
+      rec.summary.frames_reused = rec.summary.frames_total - rec.summary.frames_skipped;
+      rec.summary.frames_computed = 0;
+      rec.wall_s = 0;
       spdlog::info("{}: reused (key {})", info.name, rec.key);
     } else {
       // A forced re-run computes beside the finished run and swaps in only on success:

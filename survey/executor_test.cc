@@ -38,7 +38,8 @@ class ListStage : public TypedStage<ListStage, NoOptions> {
     ++g_list_runs;
     std::vector<FrameRecord> frames;
     std::vector<fs::path> files;
-    for (const auto& e : fs::directory_iterator(*ctx.survey().InputPath("frames"))) files.push_back(e.path());
+    for (const auto& e : fs::directory_iterator(*ctx.survey().InputPath("frames")))
+      if (e.path().extension() == ".txt") files.push_back(e.path());
     std::sort(files.begin(), files.end());
     for (size_t i = 0; i < files.size(); ++i)
       frames.push_back({FrameId{static_cast<int64_t>(i)}, static_cast<int64_t>(i) * 100, files[i], files[i]});
@@ -207,6 +208,13 @@ TEST_F(ExecutorTest, InputFileChangeRerunsEverything) {
   for (const char* s : {"list", "scale", "sum", "side"}) EXPECT_EQ(Status(r, s), "computed") << s;
   EXPECT_EQ(r.Find("scale")->summary.frames_computed, 11) << "a new input key means a new cache folder";
   EXPECT_EQ(Slurp(root_ / "out" / "sum.txt"), "120");
+}
+
+TEST_F(ExecutorTest, OutputInsideInputFolderIsNotAnInput) {
+  doc_["output"] = "numbers/out";  // like a simulated survey: frames at ".", output "out"
+  Run();
+  const auto r = Run();
+  for (const char* s : {"list", "scale", "sum", "side"}) EXPECT_EQ(Status(r, s), "reused") << s;
 }
 
 TEST_F(ExecutorTest, RerunFromForcesStageAndDependents) {

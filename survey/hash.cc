@@ -24,7 +24,7 @@ std::string KeyHasher::Hex() const {
   return fmt::format("{:016x}", XXH3_64bits_digest(static_cast<XXH3_state_t*>(state_)));
 }
 
-std::string FingerprintPath(const std::filesystem::path& path) {
+std::string FingerprintPath(const std::filesystem::path& path, const std::filesystem::path& exclude) {
   namespace fs = std::filesystem;
   KeyHasher h;
   std::error_code ec;
@@ -44,8 +44,13 @@ std::string FingerprintPath(const std::filesystem::path& path) {
     return h.Hex();
   }
   std::vector<std::string> files;
+  const fs::path excluded = exclude.empty() ? fs::path() : fs::weakly_canonical(exclude);
   for (auto it = fs::recursive_directory_iterator(path, fs::directory_options::skip_permission_denied, ec);
        !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
+    if (!excluded.empty() && it->is_directory() && fs::weakly_canonical(it->path()) == excluded) {
+      it.disable_recursion_pending();
+      continue;
+    }
     if (it->is_regular_file()) files.push_back(fs::relative(it->path(), path).generic_string());
   }
   std::sort(files.begin(), files.end());

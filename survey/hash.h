@@ -29,6 +29,8 @@ class KeyHasher {
 /// modification times of every regular file below it (make-style; contents are
 /// not read so thousands of frames fingerprint in milliseconds).
 /// Missing paths hash as "missing" so that creating them changes the key.
-std::string FingerprintPath(const std::filesystem::path& path);
+/// Files under `exclude` (e.g. the survey's own output folder when it lies
+/// inside an input folder) are left out.
+std::string FingerprintPath(const std::filesystem::path& path, const std::filesystem::path& exclude = {});
 
 }  // namespace rs

@@ -99,6 +99,51 @@ class OptionTable : public OptionTableBase {
     setters_.push_back([field](Options& o, const nlohmann::json& j) { o.*field = j.get<T>(); });
     return *this;
   }
+  /// An enum registered by its names: the schema lists them, JSON and CLI use them.
+  template <class E>
+  OptionTable& AddEnum(std::string name, E Options::*field, std::vector<std::pair<std::string, E>> values,
+                       std::string doc) {
+    OptionSpec spec;
+    spec.name = std::move(name);
+    spec.doc = std::move(doc);
+    spec.type = OptionType::kString;
+    for (const auto& [text, value] : values) spec.choices.push_back(text);
+    const E def = Options{}.*field;
+    for (const auto& [text, value] : values)
+      if (value == def) spec.default_value = text;
+    specs_.push_back(std::move(spec));
+    getters_.push_back([field, values](const Options& o) {
+      for (const auto& [text, value] : values)
+        if (value == o.*field) return nlohmann::json(text);
+      return nlohmann::json();
+    });
+    setters_.push_back([field, values](Options& o, const nlohmann::json& j) {
+      for (const auto& [text, value] : values)
+        if (text == j.get<std::string>()) o.*field = value;
+    });
+    return *this;
+  }
+
+  /// Every option of a nested struct, as "<prefix>.<name>" (or "<name>" for an
+  /// empty prefix): one registration per
+  /// field even when a stage's options are assembled from algorithm structs.
+  template <class Sub>
+  OptionTable& Include(const std::string& prefix, Sub Options::*member, const OptionTable<Sub>& sub) {
+    const Options defaults{};
+    for (size_t i = 0; i < sub.specs().size(); ++i) {
+      OptionSpec spec = sub.specs()[i];
+      spec.name = prefix.empty() ? spec.name : prefix + "." + spec.name;
+      spec.default_value = sub.GetAt(defaults.*member, i);
+      specs_.push_back(std::move(spec));
+      getters_.push_back([member, &sub, i](const Options& o) { return sub.GetAt(o.*member, i); });
+      setters_.push_back([member, &sub, i](Options& o, const nlohmann::json& j) { sub.SetAt(o.*member, i, j); });
+    }
+    return *this;
+  }
+
+  nlohmann::json GetAt(const Options& o, size_t i) const { return getters_[i](o); }
+  void SetAt(Options& o, size_t i, const nlohmann::json& j) const { setters_[i](o, j); }
+
   OptionTable& Min(double v) { specs_.back().minimum = v; return *this; }
   OptionTable& Max(double v) { specs_.back().maximum = v; return *this; }
   OptionTable& Above(double v) { specs_.back().minimum = v; specs_.back().minimum_exclusive = true; return *this; }

@@ -82,6 +82,36 @@ TEST(OptionTable, CheckStatesRule) {
   }
 }
 
+enum class Mode { kFast, kExact };
+struct Inner {
+  int window = 5;  // window size
+  static const OptionTable<Inner>& Table() {
+    static const auto t = OptionTable<Inner>().Add("window", &Inner::window, "window size").Min(3);
+    return t;
+  }
+};
+struct Outer {
+  Mode mode = Mode::kExact;
+  Inner inner;
+  static const OptionTable<Outer>& Table() {
+    static const auto t = OptionTable<Outer>()
+                              .AddEnum("mode", &Outer::mode, {{"fast", Mode::kFast}, {"exact", Mode::kExact}}, "mode")
+                              .Include("inner", &Outer::inner, Inner::Table());
+    return t;
+  }
+};
+
+TEST(OptionTable, EnumsAndNestedStructs) {
+  const auto& t = Outer::Table();
+  EXPECT_EQ(t.Defaults(), nlohmann::json({{"mode", "exact"}, {"inner.window", 5}}));
+  const Outer o = t.FromJson(t.Merge({{"mode", "fast"}, {"inner.window", 9}}, "outer"));
+  EXPECT_EQ(o.mode, Mode::kFast);
+  EXPECT_EQ(o.inner.window, 9);
+  EXPECT_EQ(t.ToJson(o)["mode"], "fast");
+  EXPECT_THROW(t.Merge({{"inner.window", 1}}, "outer"), OptionError) << "nested bounds still apply";
+  EXPECT_THROW(t.Merge({{"mode", "slow"}}, "outer"), OptionError);
+}
+
 TEST(OptionTable, SchemaCarriesBoundsAndDocs) {
   const auto schema = DemoOptions::Table().Schema("demo stage");
   EXPECT_EQ(schema["additionalProperties"], false);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <stdexcept>
 #include <string>
 
@@ -74,35 +75,117 @@ SgmParams DisparityParams::ToSgm(int min_d, int num_d) const {
 
 void FilterSpeckles(cv::Mat* disparity, cv::Mat* valid, int max_size, double max_diff_px) {
   if (max_size <= 0) return;
-  // OpenCV's speckle filter on a 1/16-px fixed-point copy; invalid pixels carry the marker.
+  // Same definition as OpenCV's filterSpeckles on a 1/16-px fixed-point copy: the connected
+  // components of the graph joining 4-neighbours that are both valid and differ by at most
+  // max_diff (fixed point); components of at most max_size pixels are dropped. Components do not
+  // depend on the labelling order, so horizontal strips are labelled in parallel (breadth-first
+  // search inside each strip) and the parts joined across strip borders by union-find.
+  const int H = disparity->rows, W = disparity->cols, max_diff = cvRound(max_diff_px * 16.0);
   constexpr int16_t kInvalid = INT16_MIN;
-  cv::Mat fixed(disparity->size(), CV_16S);
-  for (int v = 0; v < fixed.rows; ++v) {
-    const float* d = disparity->ptr<float>(v);
-    const uint8_t* m = valid->ptr<uint8_t>(v);
-    int16_t* f = fixed.ptr<int16_t>(v);
-    for (int u = 0; u < fixed.cols; ++u)
-      f[u] = m[u] ? static_cast<int16_t>(std::clamp(cvRound(d[u] * 16.0f), -32000, 32000)) : kInvalid;
+  thread_local cv::Mat tls_fixed, tls_labels;  // reused: a fresh 5 MB per frame costs page faults
+  cv::Mat& fixed = tls_fixed;
+  cv::Mat& labels = tls_labels;
+  fixed.create(H, W, CV_16S);
+  labels.create(H, W, CV_32S);
+  const int nstrips = std::clamp(H / 64, 1, 16);
+  std::vector<int> strip_row(nstrips + 1);
+  for (int s = 0; s <= nstrips; ++s) strip_row[s] = static_cast<int>(static_cast<int64_t>(s) * H / nstrips);
+  std::vector<std::vector<int>> strip_sizes(nstrips);  // pixels per strip-local label
+  const ptrdiff_t fstep = static_cast<ptrdiff_t>(fixed.step1()), lstep = static_cast<ptrdiff_t>(labels.step1());
+  int16_t* const F = fixed.ptr<int16_t>(0);
+  int* const Lb = labels.ptr<int>(0);
+  tbb::parallel_for(0, nstrips, [&](int s) {
+    const int v0 = strip_row[s], v1 = strip_row[s + 1];
+    for (int v = v0; v < v1; ++v) {
+      const float* d = disparity->ptr<float>(v);
+      const uint8_t* m = valid->ptr<uint8_t>(v);
+      int16_t* f = F + v * fstep;
+      int* l = Lb + v * lstep;
+      for (int u = 0; u < W; ++u) {
+        f[u] = m[u] ? static_cast<int16_t>(std::clamp(cvRound(d[u] * 16.0f), -32000, 32000)) : kInvalid;
+        l[u] = -1;
+      }
+    }
+    std::vector<int>& sizes = strip_sizes[s];
+    struct Pixel {
+      int v, u;
+    };
+    std::vector<Pixel> stack;
+    for (int v = v0; v < v1; ++v) {
+      const int16_t* frow = F + v * fstep;
+      int* lrow = Lb + v * lstep;
+      for (int u = 0; u < W; ++u) {
+        if (frow[u] == kInvalid || lrow[u] >= 0) continue;
+        const int label = static_cast<int>(sizes.size());
+        int count = 0;
+        lrow[u] = label;
+        stack.push_back({v, u});
+        while (!stack.empty()) {
+          const Pixel p = stack.back();
+          stack.pop_back();
+          ++count;
+          const int16_t* fr = F + p.v * fstep;
+          int* lr = Lb + p.v * lstep;
+          const int fp = fr[p.u];
+          auto visit = [&](const int16_t* f, int* l, int qv, int qu) {
+            if (l[qu] < 0 && f[qu] != kInvalid && std::abs(fp - f[qu]) <= max_diff) l[qu] = label, stack.push_back({qv, qu});
+          };
+          if (p.v + 1 < v1) visit(fr + fstep, lr + lstep, p.v + 1, p.u);
+          if (p.v > v0) visit(fr - fstep, lr - lstep, p.v - 1, p.u);
+          if (p.u + 1 < W) visit(fr, lr, p.v, p.u + 1);
+          if (p.u > 0) visit(fr, lr, p.v, p.u - 1);
+        }
+        sizes.push_back(count);
+      }
+    }
+  });
+  // Global label = strip base + local label; union-find over labels joins parts across strips.
+  std::vector<int> base(nstrips + 1, 0);
+  for (int s = 0; s < nstrips; ++s) base[s + 1] = base[s] + static_cast<int>(strip_sizes[s].size());
+  std::vector<int> parent(base[nstrips]), size(base[nstrips]);
+  for (int s = 0; s < nstrips; ++s)
+    for (size_t k = 0; k < strip_sizes[s].size(); ++k) parent[base[s] + k] = base[s] + static_cast<int>(k), size[base[s] + k] = strip_sizes[s][k];
+  auto find = [&](int a) {
+    while (parent[a] != a) a = parent[a] = parent[parent[a]];
+    return a;
+  };
+  for (int s = 1; s < nstrips; ++s) {
+    const int v = strip_row[s];
+    const int16_t *fa = fixed.ptr<int16_t>(v - 1), *fb = fixed.ptr<int16_t>(v);
+    const int *la = labels.ptr<int>(v - 1), *lb = labels.ptr<int>(v);
+    for (int u = 0; u < W; ++u) {
+      if (fa[u] == kInvalid || fb[u] == kInvalid || std::abs(fa[u] - fb[u]) > max_diff) continue;
+      int a = find(base[s - 1] + la[u]), b = find(base[s] + lb[u]);
+      if (a == b) continue;
+      if (b < a) std::swap(a, b);
+      parent[b] = a, size[a] += size[b];
+    }
   }
-  cv::filterSpeckles(fixed, kInvalid, max_size, cvRound(max_diff_px * 16.0));
-  for (int v = 0; v < fixed.rows; ++v) {
-    float* d = disparity->ptr<float>(v);
-    uint8_t* m = valid->ptr<uint8_t>(v);
-    const int16_t* f = fixed.ptr<int16_t>(v);
-    for (int u = 0; u < fixed.cols; ++u)
-      if (f[u] == kInvalid) m[u] = 0, d[u] = 0.0f;
-  }
+  std::vector<uint8_t> drop(parent.size());
+  for (size_t k = 0; k < parent.size(); ++k) drop[k] = size[find(static_cast<int>(k))] <= max_size;
+  tbb::parallel_for(0, nstrips, [&](int s) {
+    for (int v = strip_row[s]; v < strip_row[s + 1]; ++v) {
+      float* d = disparity->ptr<float>(v);
+      uint8_t* m = valid->ptr<uint8_t>(v);
+      const int* l = labels.ptr<int>(v);
+      for (int u = 0; u < W; ++u)
+        if (!m[u] || drop[base[s] + l[u]]) m[u] = 0, d[u] = 0.0f;
+    }
+  });
 }
 
 namespace {
 
-inline void Sort2(float& a, float& b) {
-  const float lo = std::min(a, b), hi = std::max(a, b);
+using vf = float __attribute__((vector_size(64)));  // 16 floats (one AVX-512 register, two AVX2)
+constexpr int kFloats = 16;
+
+inline void Sort2(vf& a, vf& b) {
+  const vf lo = a < b ? a : b, hi = a < b ? b : a;
   a = lo, b = hi;
 }
 
-// Median of 9 by a 19-exchange network (full neighbourhoods, the common case).
-inline float Median9(float* p) {
+// The same 19-exchange network as Median9, on 16 pixels at once.
+inline vf Median9(vf* p) {
   Sort2(p[1], p[2]), Sort2(p[4], p[5]), Sort2(p[7], p[8]), Sort2(p[0], p[1]), Sort2(p[3], p[4]);
   Sort2(p[6], p[7]), Sort2(p[1], p[2]), Sort2(p[4], p[5]), Sort2(p[7], p[8]), Sort2(p[0], p[3]);
   Sort2(p[5], p[8]), Sort2(p[4], p[7]), Sort2(p[3], p[6]), Sort2(p[1], p[4]), Sort2(p[2], p[5]);
@@ -113,15 +196,19 @@ inline float Median9(float* p) {
 }  // namespace
 
 void MedianValid3x3(cv::Mat* disparity, const cv::Mat& valid) {
-  const cv::Mat src = disparity->clone();
+  thread_local cv::Mat tls_src;  // reused: a fresh copy per frame costs page faults
+  cv::Mat& src = tls_src;
+  disparity->copyTo(src);
   const int W = src.cols, H = src.rows;
   tbb::parallel_for(tbb::blocked_range<int>(0, H, 16), [&](const tbb::blocked_range<int>& r) {
     float vals[9];
+    std::vector<uint8_t> col(W);  // all three rows valid in this column
+    alignas(64) float med[kFloats];
     for (int v = r.begin(); v < r.end(); ++v) {
       const uint8_t* m = valid.ptr<uint8_t>(v);
       float* dst = disparity->ptr<float>(v);
-      for (int u = 0; u < W; ++u) {
-        if (!m[u]) continue;
+      // Pixel u with all 9 neighbours valid (the common case): the vector network.
+      auto general = [&](int u) {
         int n = 0;
         for (int y = std::max(0, v - 1); y <= std::min(H - 1, v + 1); ++y) {
           const uint8_t* my = valid.ptr<uint8_t>(y);
@@ -129,13 +216,31 @@ void MedianValid3x3(cv::Mat* disparity, const cv::Mat& valid) {
           for (int x = std::max(0, u - 1); x <= std::min(W - 1, u + 1); ++x)
             if (my[x]) vals[n++] = sy[x];
         }
-        if (n == 9) {
-          dst[u] = Median9(vals);
-        } else {
-          std::nth_element(vals, vals + (n - 1) / 2, vals + n);
-          dst[u] = vals[(n - 1) / 2];
+        std::nth_element(vals, vals + (n - 1) / 2, vals + n);
+        dst[u] = vals[(n - 1) / 2];
+      };
+      int u = 0;
+      if (v > 0 && v < H - 1) {
+        const uint8_t *m0 = valid.ptr<uint8_t>(v - 1), *m2 = valid.ptr<uint8_t>(v + 1);
+        for (int x = 0; x < W; ++x) col[x] = m0[x] & m[x] & m2[x];
+        const float* rows[3] = {src.ptr<float>(v - 1), src.ptr<float>(v), src.ptr<float>(v + 1)};
+        if (m[0]) general(0);
+        for (u = 1; u + kFloats <= W - 1; u += kFloats) {
+          vf p[9];
+          for (int y = 0; y < 3; ++y)
+            for (int dx = 0; dx < 3; ++dx) std::memcpy(&p[3 * y + dx], rows[y] + u - 1 + dx, sizeof(vf));
+          const vf md = Median9(p);
+          std::memcpy(med, &md, sizeof(md));
+          for (int i = 0; i < kFloats; ++i) {
+            const int x = u + i;
+            if (!m[x]) continue;
+            if (col[x - 1] & col[x] & col[x + 1]) dst[x] = med[i];
+            else general(x);
+          }
         }
       }
+      for (; u < W; ++u)
+        if (m[u]) general(u);
     }
   });
 }
@@ -198,27 +303,38 @@ DisparityResult ComputeDisparity(const cv::Mat& left, const cv::Mat& right, cons
 
   t0 = std::chrono::steady_clock::now();
   res.valid = sgm.valid;
-  if (gpt && P.gpt_subpixel_warp) {
-    res.disparity = TrueFromWarpedDisparity(sgm.disparity, sgm.valid, kappa);
-  } else {
-    res.disparity = sgm.disparity;
-  }
-  // A match outside the target image is unobservable: after a sub-pixel warp the replicated
-  // border can still "match", so drop those explicitly (plain SGM already rejects them).
-  for (int v = 0; v < H; ++v) {
-    float* d = res.disparity.ptr<float>(v);
-    uint8_t* m = res.valid.ptr<uint8_t>(v);
-    for (int u = 0; u < W; ++u)
-      if (m[u] && (u - d[u] < 0 || u - d[u] > W - 1)) m[u] = 0, d[u] = 0.0f;
-  }
-  if (gpt && P.gpt_min_valid_fraction > 0) {
-    int64_t visible = 0, visible_valid = 0;
-    for (int v = 0; v < H; ++v) {
-      const uint8_t* m = res.valid.ptr<uint8_t>(v);
-      const double x_min = res.road.At(0, v), slope = res.road.At(1, v) - x_min;  // visible: u - road >= 0
+  const bool warped = gpt && P.gpt_subpixel_warp;
+  res.disparity = warped ? cv::Mat(H, W, CV_32F) : sgm.disparity;
+  // One parallel pass: true disparity (d = l + kappa after a sub-pixel warp), a match outside
+  // the target image dropped (after a warp the replicated border can still "match"; plain SGM
+  // already rejects them), and per-row counts for the fall-back rule and the density.
+  std::vector<int64_t> row_visible(H, 0), row_visible_valid(H, 0), row_valid(H, 0);
+  tbb::parallel_for(tbb::blocked_range<int>(0, H, 16), [&](const tbb::blocked_range<int>& r) {
+    for (int v = r.begin(); v < r.end(); ++v) {
+      float* d = res.disparity.ptr<float>(v);
+      uint8_t* m = res.valid.ptr<uint8_t>(v);
+      if (warped) {
+        const float* l = sgm.disparity.ptr<float>(v);
+        for (int u = 0; u < W; ++u) d[u] = m[u] ? static_cast<float>(l[u] + kappa[v]) : 0.0f;
+      }
+      int64_t n_valid = 0;
+      for (int u = 0; u < W; ++u) {
+        if (m[u] && (u - d[u] < 0 || u - d[u] > W - 1)) m[u] = 0, d[u] = 0.0f;
+        n_valid += m[u] != 0;
+      }
+      row_valid[v] = n_valid;
+      if (!gpt || P.gpt_min_valid_fraction <= 0) continue;
+      // Visible: the road point u - road(u, v) lies inside the right image.
+      const double x_min = res.road.At(0, v), slope = res.road.At(1, v) - x_min;
+      int64_t vis = 0, vis_valid = 0;
       for (int u = 0; u < W; ++u)
-        if (u - (res.road.quadratic ? res.road.At(u, v) : x_min + slope * u) >= 0) ++visible, visible_valid += m[u] != 0;
+        if (u - (res.road.quadratic ? res.road.At(u, v) : x_min + slope * u) >= 0) ++vis, vis_valid += m[u] != 0;
+      row_visible[v] = vis, row_visible_valid[v] = vis_valid;
     }
+  });
+  int64_t visible = 0, visible_valid = 0, num_valid = 0;
+  for (int v = 0; v < H; ++v) visible += row_visible[v], visible_valid += row_visible_valid[v], num_valid += row_valid[v];
+  if (gpt && P.gpt_min_valid_fraction > 0) {
     if (visible == 0 || visible_valid < P.gpt_min_valid_fraction * visible) {
       DisparityParams plain = P;
       plain.method = DisparityMethod::kSgm;
@@ -238,7 +354,7 @@ DisparityResult ComputeDisparity(const cv::Mat& left, const cv::Mat& right, cons
   } else {
     res.transformed = cv::Mat::zeros(H, W, CV_32F);
   }
-  res.valid_fraction = static_cast<double>(cv::countNonZero(res.valid)) / static_cast<double>(res.valid.total());
+  res.valid_fraction = static_cast<double>(num_valid) / static_cast<double>(res.valid.total());
   res.timings.transform_ms = MsSince(t0);
   res.timings.total_ms = MsSince(t_start);
   return res;

@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include <gtest/gtest.h>
+#include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -165,6 +166,67 @@ TEST(Disparity, RealRoadAgreesWithPlainSgm) {
       if (a.valid.at<uint8_t>(v, u)) t.push_back(a.transformed.at<float>(v, u));
   std::nth_element(t.begin(), t.begin() + t.size() / 2, t.end());
   EXPECT_NEAR(t[t.size() / 2], 20.0, 0.5);
+}
+
+// Oracle: OpenCV's filterSpeckles on the 1/16-px fixed-point copy. Patches of random size and
+// level (steps of 0..2 px between neighbours), holes, and a height that splits into several strips.
+TEST(Disparity, FilterSpecklesMatchesOpenCv) {
+  const int W = 157, H = 301;
+  cv::Mat d(H, W, CV_32F), valid(H, W, CV_8U);
+  cv::RNG rng(11);
+  for (int v = 0; v < H; ++v)
+    for (int u = 0; u < W; ++u) {
+      const int cell = (v / 9) * 1000 + (u / (3 + (v / 9) % 9)) + ((u + v) % 13 == 0 ? 500 : 0);
+      d.at<float>(v, u) = 20.0f + static_cast<float>((cell * 7919) % 23) * 0.6f + static_cast<float>(rng.uniform(0.0, 0.3));
+      valid.at<uint8_t>(v, u) = rng.uniform(0, 100) < 8 ? 0 : 255;
+    }
+  for (const double max_diff : {0.5, 1.0, 2.0}) {
+    cv::Mat fixed(H, W, CV_16S);
+    for (int v = 0; v < H; ++v)
+      for (int u = 0; u < W; ++u)
+        fixed.at<int16_t>(v, u) = valid.at<uint8_t>(v, u) ? static_cast<int16_t>(cvRound(d.at<float>(v, u) * 16.0f)) : INT16_MIN;
+    cv::filterSpeckles(fixed, INT16_MIN, 40, cvRound(max_diff * 16.0));
+    cv::Mat got_d = d.clone(), got_v = valid.clone();
+    FilterSpeckles(&got_d, &got_v, 40, max_diff);
+    int mismatches = 0, kept = 0, dropped = 0;
+    for (int v = 0; v < H; ++v)
+      for (int u = 0; u < W; ++u) {
+        const bool want = fixed.at<int16_t>(v, u) != INT16_MIN;
+        mismatches += want != (got_v.at<uint8_t>(v, u) != 0) || (!want && got_d.at<float>(v, u) != 0.0f);
+        kept += want, dropped += !want && valid.at<uint8_t>(v, u);
+      }
+    EXPECT_EQ(mismatches, 0) << "max_diff " << max_diff;
+    EXPECT_GT(kept, W * H / 10);  // both outcomes occur
+    EXPECT_GT(dropped, W * H / 20);
+  }
+}
+
+// Naive oracle: median (lower for even counts) of the valid 3x3 neighbours of each valid pixel.
+TEST(Disparity, MedianValid3x3MatchesNaive) {
+  const int W = 83, H = 29;
+  cv::Mat d(H, W, CV_32F), valid(H, W, CV_8U);
+  cv::RNG rng(7);
+  rng.fill(d, cv::RNG::UNIFORM, 0.0, 50.0);
+  for (int v = 0; v < H; ++v)
+    for (int u = 0; u < W; ++u) valid.at<uint8_t>(v, u) = rng.uniform(0, 10) < 2 ? 0 : 255;
+  for (int u = 20; u < 60; ++u) valid.at<uint8_t>(10, u) = 255, valid.at<uint8_t>(11, u) = 255, valid.at<uint8_t>(12, u) = 255;
+  cv::Mat got = d.clone();
+  MedianValid3x3(&got, valid);
+  int mismatches = 0;
+  for (int v = 0; v < H; ++v)
+    for (int u = 0; u < W; ++u) {
+      float want = d.at<float>(v, u);
+      if (valid.at<uint8_t>(v, u)) {
+        std::vector<float> n;
+        for (int y = std::max(0, v - 1); y <= std::min(H - 1, v + 1); ++y)
+          for (int x = std::max(0, u - 1); x <= std::min(W - 1, u + 1); ++x)
+            if (valid.at<uint8_t>(y, x)) n.push_back(d.at<float>(y, x));
+        std::sort(n.begin(), n.end());
+        want = n[(n.size() - 1) / 2];
+      }
+      mismatches += got.at<float>(v, u) != want;
+    }
+  EXPECT_EQ(mismatches, 0);
 }
 
 TEST(Disparity, BadParams) {

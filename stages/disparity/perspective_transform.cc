@@ -58,8 +58,10 @@ cv::Mat TransformedDisparity(const cv::Mat& d, const cv::Mat& valid, const RoadM
       const float* src = d.ptr<float>(v);
       const uint8_t* m = valid.ptr<uint8_t>(v);
       float* dst = t.ptr<float>(v);
+      // road(u, v) = a + b u + c u^2 along the row (c = 0 for the planar model).
+      const double a = road.c[0] + road.c[2] * v + road.c[5] * v * v, b = road.c[1] + road.c[4] * v, c = road.c[3];
       for (int u = 0; u < d.cols; ++u)
-        if (m[u]) dst[u] = static_cast<float>(src[u] - road.At(u, v) + delta_px);
+        if (m[u]) dst[u] = static_cast<float>(src[u] - (a + (b + c * u) * u) + delta_px);
     }
   });
   return t;

@@ -11,6 +11,7 @@
 #include <Eigen/Dense>
 #include <opencv2/features2d.hpp>
 #include <opencv2/imgproc.hpp>
+#include <tbb/parallel_invoke.h>
 
 namespace rs {
 
@@ -101,21 +102,19 @@ std::vector<DisparitySample> MatchSparseDisparities(const cv::Mat& L, const cv::
   if (L.type() != CV_8UC1 || R.type() != CV_8UC1 || L.size() != R.size())
     throw std::invalid_argument("road_model: inputs must be CV_8UC1 images of equal size");
   const double sc = o.detect_scale;
-  cv::Mat Ls = L, Rs = R;
-  if (sc < 1) {
-    cv::resize(L, Ls, cv::Size(), sc, sc, cv::INTER_AREA);
-    cv::resize(R, Rs, cv::Size(), sc, sc, cv::INTER_AREA);
-  }
-  auto fast = cv::FastFeatureDetector::create(o.fast_threshold, true);
-  auto orb = cv::ORB::create(o.max_features, 1.2f, 1);
   std::vector<cv::KeyPoint> kl, kr;
-  fast->detect(Ls, kl);
-  fast->detect(Rs, kr);
-  cv::KeyPointsFilter::retainBest(kl, o.max_features);
-  cv::KeyPointsFilter::retainBest(kr, o.max_features);
   cv::Mat dl, dr;
-  orb->compute(Ls, kl, dl);
-  orb->compute(Rs, kr, dr);
+  // The two views are independent: resize, detect and describe them in parallel.
+  auto describe = [&](const cv::Mat& full, std::vector<cv::KeyPoint>* k, cv::Mat* desc) {
+    cv::Mat img = full;
+    if (sc < 1) cv::resize(full, img, cv::Size(), sc, sc, cv::INTER_AREA);
+    auto fast = cv::FastFeatureDetector::create(o.fast_threshold, true);  // one instance per thread
+    auto orb = cv::ORB::create(o.max_features, 1.2f, 1);
+    fast->detect(img, *k);
+    cv::KeyPointsFilter::retainBest(*k, o.max_features);
+    orb->compute(img, *k, *desc);
+  };
+  tbb::parallel_invoke([&] { describe(L, &kl, &dl); }, [&] { describe(R, &kr, &dr); });
   std::vector<DisparitySample> out;
   if (kl.empty() || kr.empty()) return out;
 

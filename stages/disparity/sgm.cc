@@ -12,16 +12,20 @@
 #include "stages/disparity/sgm.h"
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cstring>
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
+#include <utility>
 
 #include <opencv2/core.hpp>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_pipeline.h>
 
 #if defined(__AVX2__)
 #include <immintrin.h>
@@ -57,10 +61,12 @@ inline v16 Splat(uint16_t x) { return v16{} + x; }
 
 inline uint16_t HMin(v16 v) {
 #if defined(__AVX512BW__)
-  __m256i lo, hi;  // halves by memcpy (GCC 12 warns spuriously inside _mm512_extracti64x4_epi64)
-  std::memcpy(&lo, &v, sizeof(lo));
-  std::memcpy(&hi, reinterpret_cast<const char*>(&v) + sizeof(lo), sizeof(hi));
-  const __m256i x = _mm256_min_epu16(lo, hi);
+  // Upper half onto the lower by a lane shuffle (stays in registers; a memcpy split went
+  // through the stack), then the AVX2/SSE4.1 reduction on the low 256 bits.
+  using m16 = uint16_t __attribute__((vector_size(2 * kLanes)));
+  constexpr m16 upper = {16, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26, 27, 28, 29, 30, 31,
+                         16, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26, 27, 28, 29, 30, 31};
+  const __m256i x = _mm512_castsi512_si256(reinterpret_cast<__m512i>(VMin(v, __builtin_shuffle(v, upper))));
   const __m128i m = _mm_min_epu16(_mm256_castsi256_si128(x), _mm256_extracti128_si256(x, 1));
   return static_cast<uint16_t>(_mm_cvtsi128_si32(_mm_minpos_epu16(m)) & 0xFFFF);
 #elif defined(__AVX2__)
@@ -90,6 +96,21 @@ inline int FirstEqual(v16 v, uint16_t x) {
 #endif
 }
 
+// Bit i set where lane i <= t.
+inline uint32_t LanesLe(v16 v, uint16_t t) {
+#if defined(__AVX512BW__)
+  return _mm512_cmple_epu16_mask(reinterpret_cast<__m512i>(v), _mm512_set1_epi16(static_cast<short>(t)));
+#elif defined(__AVX2__) && defined(__BMI2__)
+  const __m256i x = reinterpret_cast<__m256i>(v);
+  const __m256i le = _mm256_cmpeq_epi16(_mm256_min_epu16(x, _mm256_set1_epi16(static_cast<short>(t))), x);
+  return _pext_u32(static_cast<uint32_t>(_mm256_movemask_epi8(le)), 0x55555555u);
+#else
+  uint32_t m = 0;
+  for (int i = 0; i < kLanes; ++i) m |= (v[i] <= t ? 1u : 0u) << i;
+  return m;
+#endif
+}
+
 double MsSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
@@ -115,11 +136,18 @@ struct Penalties {
   uint16_t Eff(int a, int b) const { return table[a > b ? a - b : b - a]; }
 };
 
+// How a path step combines its L(p,.) with the sum volume.
+enum class Acc {
+  kInit,  // S = L
+  kAdd,   // S += L
+  kOut,   // out = S + L, S untouched (the last path feeds winner-takes-all directly)
+};
+
 // One path step: L(p,.) from L(p-r,.) (with kBig sentinels at index -1 and Dp).
-// kInit: write S instead of accumulating. Returns min_k L(p,k).
-template <bool kInit>
+// Returns min_k L(p,k).
+template <Acc kAcc>
 inline uint16_t Step(const uint8_t* C, const v16* bias, const uint16_t* Lprev, uint16_t min_prev, uint16_t p1,
-                     uint16_t p2e, uint16_t* Lcur, uint16_t* S, int Dp) {
+                     uint16_t p2e, uint16_t* Lcur, uint16_t* S, int Dp, uint16_t* out = nullptr) {
   const v16 vp1 = Splat(p1), vmp2 = Splat(static_cast<uint16_t>(min_prev + p2e)), vmp = Splat(min_prev);
   v16 mn = Splat(0xFFFF);
   for (int j = 0, c = 0; j < Dp; j += kLanes, ++c) {
@@ -128,19 +156,24 @@ inline uint16_t Step(const uint8_t* C, const v16* bias, const uint16_t* Lprev, u
     const v16 t = VMin(VMin(Load(Lprev + j), near), vmp2);
     const v16 l = cost + t - vmp;
     Store(Lcur + j, l);
-    Store(S + j, kInit ? l : Load(S + j) + l);
+    if constexpr (kAcc == Acc::kInit) Store(S + j, l);
+    if constexpr (kAcc == Acc::kAdd) Store(S + j, Load(S + j) + l);
+    if constexpr (kAcc == Acc::kOut) Store(out + j, Load(S + j) + l);
     mn = VMin(mn, l);
   }
   return HMin(mn);
 }
 
-template <bool kInit>
-inline uint16_t StepStart(const uint8_t* C, const v16* bias, uint16_t* Lcur, uint16_t* S, int Dp) {
+template <Acc kAcc>
+inline uint16_t StepStart(const uint8_t* C, const v16* bias, uint16_t* Lcur, uint16_t* S, int Dp,
+                          uint16_t* out = nullptr) {
   v16 mn = Splat(0xFFFF);
   for (int j = 0, c = 0; j < Dp; j += kLanes, ++c) {
     const v16 l = LoadCost(C + j) + bias[c];
     Store(Lcur + j, l);
-    Store(S + j, kInit ? l : Load(S + j) + l);
+    if constexpr (kAcc == Acc::kInit) Store(S + j, l);
+    if constexpr (kAcc == Acc::kAdd) Store(S + j, Load(S + j) + l);
+    if constexpr (kAcc == Acc::kOut) Store(out + j, Load(S + j) + l);
     mn = VMin(mn, l);
   }
   return HMin(mn);
@@ -153,6 +186,126 @@ struct LineBuffer {
   std::vector<uint16_t> min;
   LineBuffer(int n, int dp) : Dp(dp), stride(dp + 2), data(static_cast<size_t>(n) * (dp + 2), kBig), min(n, 0) {}
   uint16_t* L(int i) { return data.data() + static_cast<size_t>(i) * stride + 1; }
+};
+
+// Winner-takes-all of one pixel from its summed costs S[0, Dp): uniqueness, sub-pixel; writes
+// the disparity and validity before the left-right check and returns the winner k.
+struct Wta {
+  int W = 0, D = 0, Dp = 0, uniqueness = 0;
+  SubpixelMode subpixel = SubpixelMode::kNone;
+  std::vector<uint32_t> real;  // per chunk of kLanes disparities: lanes k < D
+  Wta(const SgmParams& P, int width, int dp)
+      : W(width), D(P.num_disparities), Dp(dp), uniqueness(P.uniqueness_ratio), subpixel(P.subpixel), real(dp / kLanes) {
+    for (int c = 0; c < dp / kLanes; ++c)
+      for (int i = 0; i < kLanes; ++i)
+        if (c * kLanes + i < D) real[c] |= 1u << i;
+  }
+  // kDp: Dp known at compile time (loops unroll), or 0.
+  template <int kDp = 0>
+  int Pixel(const uint16_t* S, int u, int off, float* disp, uint8_t* valid) const {
+    const int Dp = kDp ? kDp : this->Dp;
+    v16 mn = Splat(0xFFFF);
+    for (int j = 0; j < Dp; j += kLanes) mn = VMin(mn, Load(S + j));
+    const uint16_t smin = HMin(mn);
+    int b = 0;
+    for (int j = 0; j < Dp; j += kLanes) {
+      const int i = FirstEqual(Load(S + j), smin);
+      if (i >= 0) {
+        b = j + i;
+        break;
+      }
+    }
+    bool ok = true;
+    // Uniqueness: rejected when a real k with |k - b| > 1 has S(k) * (100 - r) < smin * 100, i.e.
+    // S(k) <= thr = (smin * 100 - 1) / (100 - r) for smin > 0 (none qualifies when smin = 0).
+    // Lane masks against one threshold keep this off the critical path of a second minimum.
+    if (uniqueness > 0 && smin > 0) {
+      const int thr = std::min(0xFFFF, (static_cast<int>(smin) * 100 - 1) / (100 - uniqueness));
+      for (int j = 0, c = 0; j < Dp; j += kLanes, ++c) {
+        const int sh = b - 1 - j;  // lanes b-1..b+1 of this chunk are excluded
+        const uint32_t near = sh >= 0 ? (sh < 32 ? 7u << sh : 0u) : (sh > -3 ? 7u >> -sh : 0u);
+        if (LanesLe(Load(S + j), static_cast<uint16_t>(thr)) & real[c] & ~near) {
+          ok = false;
+          break;
+        }
+      }
+    }
+    const int x = u - off - b;
+    if (x < 0 || x >= W) ok = false;
+    float sub = 0.0f;
+    if (ok && subpixel != SubpixelMode::kNone && b > 0 && b < D - 1) sub = SubpixelOffset(S[b - 1], S[b], S[b + 1], subpixel);
+    *valid = ok ? 255 : 0;
+    *disp = ok ? static_cast<float>(off + b) + sub : 0.0f;
+    return b;
+  }
+};
+
+// Right-view winners argmin_k S(x + off + k, k) (smallest k on ties) of one row, packed as
+// S << 16 | k so that one unsigned minimum applies both rules. Pixels u are pushed in ascending
+// order; a sliding window of Dp entries (lane j <-> target x = u - off - j) lives in registers,
+// so no entry is stored and reloaded per pixel. A run of pixels [u0, u1) owns the targets only
+// it can reach; the Dp targets it shares with each neighbouring run are merged by atomic minimum
+// (order-independent, so the result is deterministic).
+constexpr int kL32 = 16;
+using v32 = uint32_t __attribute__((vector_size(4 * kL32)));
+using m32 = uint32_t __attribute__((vector_size(4 * kL32)));
+using v16h = uint16_t __attribute__((vector_size(2 * kL32)));
+constexpr uint32_t kNoMatch = 0xFFFFFFFFu;
+
+inline void AtomicMin(uint32_t* p, uint32_t x) {
+  std::atomic_ref<uint32_t> a(*p);
+  uint32_t cur = a.load(std::memory_order_relaxed);
+  while (x < cur && !a.compare_exchange_weak(cur, x, std::memory_order_relaxed)) {
+  }
+}
+
+template <int kN = 0>  // kN: Dp / 16 known at compile time (the window stays in registers), or 0
+class RightWinners {
+ public:
+  RightWinners(int D, int Dp) : n_(kN ? kN : Dp / kL32) {
+    for (int c = 0; c < n_; ++c)
+      for (int i = 0; i < kL32; ++i) {
+        const int k = c * kL32 + i;
+        key_[c][i] = k < D ? static_cast<uint32_t>(k) : kNoMatch;  // padded lanes never win
+      }
+  }
+  // Starts the run at pixel u0 of a row whose targets go to `row` (W entries, initialised to kNoMatch).
+  void Start(uint32_t* row, int W, int u0, int off) {
+    row_ = row, W_ = W, u0_ = u0, off_ = off, u_ = u0;
+    for (int c = 0; c < n_; ++c) win_[c] = v32{} + kNoMatch;
+  }
+  // Adds pixel u_ (the next in the run) with summed costs S[0, Dp).
+  void Push(const uint16_t* S) {
+    const uint32_t done = win_[n_ - 1][kL32 - 1];  // target x = u_ - off - Dp: no later pixel reaches it
+    constexpr m32 shift = {15, 16, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26, 27, 28, 29, 30};
+    for (int c = n_ - 1; c >= 0; --c) win_[c] = __builtin_shuffle(c ? win_[c - 1] : v32{} + kNoMatch, win_[c], shift);
+    for (int c = 0; c < n_; ++c) {
+      v16h s;
+      std::memcpy(&s, S + c * kL32, sizeof(s));
+      const v32 packed = (__builtin_convertvector(s, v32) << 16) | key_[c];
+      win_[c] = win_[c] < packed ? win_[c] : packed;
+    }
+    Emit(u_ - off_ - n_ * kL32, done, u_ - u0_ < n_ * kL32);
+    ++u_;
+  }
+  // Ends the run: its last Dp targets are shared with the next run.
+  void Finish() {
+    for (int c = 0; c < n_; ++c)
+      for (int i = 0; i < kL32; ++i) Emit(u_ - 1 - off_ - (c * kL32 + i), win_[c][i], true);
+  }
+
+ private:
+  void Emit(int x, uint32_t value, bool shared) {
+    if (x < 0 || x >= W_ || value == kNoMatch) return;
+    if (shared) AtomicMin(row_ + x, value);
+    else row_[x] = value;
+  }
+  static constexpr int kMax = kN ? kN : 1024 / kL32;
+  const int n_;
+  std::array<v32, kMax> win_;
+  std::array<v32, kMax> key_;
+  uint32_t* row_ = nullptr;
+  int W_ = 0, u0_ = 0, off_ = 0, u_ = 0;
 };
 
 // cr_rev / ir_rev: the target row reversed (index W - 1 - x), so the candidates of one
@@ -181,6 +334,165 @@ void ComputeCostRow(const SgmParams& P, const uint64_t* __restrict cl, const uin
     for (int k = khi; k < D; ++k) c[k] = max_cost;
     for (int k = D; k < Dp; ++k) c[k] = 0;
   }
+}
+
+// Inputs of pass 1 (see ComputeSgm).
+struct CostContext {
+  const Volume& vol;
+  const v16* bias;
+  const Penalties& pen;
+  const uint8_t* img;  // left image, W x H continuous
+  const SgmParams& P;
+  int W, H, D, Dp;
+  const uint64_t* cl;  // census codes, left and right
+  const uint64_t* cr;
+  const cv::Mat& L;
+  const cv::Mat& R;
+  std::atomic<double>* cost_ms_total;
+  int Offset(int v) const { return P.min_disparity + (P.row_offset.empty() ? 0 : P.row_offset[v]); }
+  int I(int v, int u) const { return img[static_cast<size_t>(v) * W + u]; }
+};
+
+// Both horizontal paths of kNR rows from v0, advancing together (independent dependency chains).
+template <int kNR>
+inline void HorizontalRows(const CostContext& c, int v0, int dp, LineBuffer* buf) {
+  const int W = c.W;
+  uint16_t *prev[kNR], *cur[kNR];
+  uint16_t mp[kNR];
+  for (int i = 0; i < kNR; ++i) {
+    prev[i] = buf->L(2 * i), cur[i] = buf->L(2 * i + 1);
+    mp[i] = StepStart<Acc::kInit>(c.vol.Cost(v0 + i, 0), c.bias, prev[i], c.vol.Sum(v0 + i, 0), dp);
+  }
+  for (int u = 1; u < W; ++u)
+    for (int i = 0; i < kNR; ++i) {
+      const int v = v0 + i;
+      mp[i] = Step<Acc::kInit>(c.vol.Cost(v, u), c.bias, prev[i], mp[i], c.pen.p1, c.pen.Eff(c.I(v, u), c.I(v, u - 1)),
+                               cur[i], c.vol.Sum(v, u), dp);
+      std::swap(prev[i], cur[i]);
+    }
+  for (int i = 0; i < kNR; ++i)
+    mp[i] = StepStart<Acc::kAdd>(c.vol.Cost(v0 + i, W - 1), c.bias, prev[i], c.vol.Sum(v0 + i, W - 1), dp);
+  for (int u = W - 2; u >= 0; --u)
+    for (int i = 0; i < kNR; ++i) {
+      const int v = v0 + i;
+      mp[i] = Step<Acc::kAdd>(c.vol.Cost(v, u), c.bias, prev[i], mp[i], c.pen.p1, c.pen.Eff(c.I(v, u), c.I(v, u + 1)),
+                              cur[i], c.vol.Sum(v, u), dp);
+      std::swap(prev[i], cur[i]);
+    }
+}
+
+// Pass 1: cost and horizontal paths, independent per row, in pairs of rows (a path step waits on
+// the previous step's minimum, so one row alone leaves the core mostly idle). With
+// `down`, the downward vertical path follows in the same TBB pipeline, in row order, on each row
+// pair just finished: its cost and sums are still in cache, which saves a trip through memory
+// over the whole volume. kNC as in VerticalPathsAndWta.
+template <int kNC>
+void CostAndHorizontalPaths(const CostContext& c, bool down) {
+  constexpr int kRowsPerToken = 2;
+  const int dp = kNC ? kNC * kLanes : c.Dp, W = c.W, H = c.H;
+  int next = 0;
+  LineBuffer la(W, dp), lb(W, dp);  // downward path: previous and current row
+  auto horizontal = [&](int v0) {
+    const int nr = std::min(kRowsPerToken, H - v0);
+    LineBuffer buf(2 * kRowsPerToken, dp);
+    std::vector<uint64_t> cr_rev(W);
+    std::vector<uint8_t> ir_rev(W);
+    const auto tc = std::chrono::steady_clock::now();
+    for (int v = v0; v < v0 + nr; ++v) {
+      const uint64_t* crow = c.cr + static_cast<size_t>(v) * W;
+      const uint8_t* irow = c.R.ptr<uint8_t>(v);
+      std::reverse_copy(crow, crow + W, cr_rev.begin());
+      std::reverse_copy(irow, irow + W, ir_rev.begin());
+      ComputeCostRow(c.P, c.cl + static_cast<size_t>(v) * W, cr_rev.data(), c.L.ptr<uint8_t>(v), ir_rev.data(), W, c.D,
+                     dp, c.Offset(v), c.vol.cost.get() + static_cast<size_t>(v) * W * dp);
+    }
+    c.cost_ms_total->fetch_add(MsSince(tc));
+    if (nr == kRowsPerToken) {
+      HorizontalRows<kRowsPerToken>(c, v0, dp, &buf);
+    } else {
+      for (int v = v0; v < v0 + nr; ++v) HorizontalRows<1>(c, v, dp, &buf);
+    }
+    return v0;
+  };
+  auto downward = [&](int v0) {
+    for (int v = v0; v < std::min(v0 + kRowsPerToken, H); ++v) {
+      for (int u = 0; u < W; ++u)
+        lb.min[u] = v == 0 ? StepStart<Acc::kAdd>(c.vol.Cost(v, u), c.bias, lb.L(u), c.vol.Sum(v, u), dp)
+                           : Step<Acc::kAdd>(c.vol.Cost(v, u), c.bias, la.L(u), la.min[u], c.pen.p1,
+                                             c.pen.Eff(c.I(v, u), c.I(v - 1, u)), lb.L(u), c.vol.Sum(v, u), dp);
+      std::swap(la, lb);
+    }
+  };
+  auto source = tbb::make_filter<void, int>(tbb::filter_mode::serial_in_order, [&](tbb::flow_control& fc) {
+    if (next >= H) fc.stop();
+    const int v0 = next;
+    next += kRowsPerToken;
+    return v0;
+  });
+  auto rows = tbb::make_filter<int, int>(tbb::filter_mode::parallel, horizontal);
+  if (down) {
+    tbb::parallel_pipeline(4, source & rows & tbb::make_filter<int, void>(tbb::filter_mode::serial_in_order, downward));
+  } else {
+    tbb::parallel_pipeline(8, source & rows & tbb::make_filter<int, void>(tbb::filter_mode::parallel, [](int) {}));
+  }
+}
+
+// Inputs and outputs of the 4-path upward sweep (see ComputeSgm).
+struct VerticalContext {
+  const Volume& vol;
+  const v16* bias;
+  const Penalties& pen;
+  const uint8_t* img;  // left image, W x H continuous
+  const SgmParams& P;
+  int W, H, D, Dp;
+  bool lr;
+  const Wta& wta;
+  uint16_t* best;
+  uint32_t* right;
+  SgmOutput* out;
+  int Offset(int v) const { return P.min_disparity + (P.row_offset.empty() ? 0 : P.row_offset[v]); }
+  int I(int v, int u) const { return img[static_cast<size_t>(v) * W + u]; }
+};
+
+// Upward vertical path of the 4-path mode (the downward one runs in pass 1): columns are
+// independent, so blocks of columns sweep the whole image without a barrier per row. It is the
+// last path: it hands each pixel's final sums straight to winner-takes-all (and the right-view
+// winners) instead of storing them.
+// kNC: vectors per pixel when fixed at compile time (loops unroll, registers hold the window), or 0.
+template <int kNC>
+void VerticalPathsAndWta(const VerticalContext& c) {
+  constexpr int kDp = kNC * kLanes;
+  const int dp = kNC ? kDp : c.Dp, W = c.W, H = c.H;
+  const Volume& vol = c.vol;
+  tbb::parallel_for(tbb::blocked_range<int>(0, W, 256), [&](const tbb::blocked_range<int>& r) {
+    const int n = static_cast<int>(r.size());
+    LineBuffer a(n, dp), b(n, dp);
+    std::vector<uint16_t> sbuf(dp);
+    uint16_t* s = sbuf.data();
+    RightWinners<kDp / kL32> rw(c.D, dp);
+    for (int v = H - 1; v >= 0; --v) {
+      const int off = c.Offset(v);
+      float* disp = c.out->disparity.ptr<float>(v);
+      uint8_t* valid = c.out->valid.ptr<uint8_t>(v);
+      uint16_t* bestv = c.best + static_cast<size_t>(v) * W;
+      if (c.lr) rw.Start(c.right + static_cast<size_t>(v) * W, W, r.begin(), off);
+      const int vn = std::max(v - 1, 0);  // next row up: prefetched (rows are 80+ KB apart, beyond the streamers)
+      for (int i = 0; i < n; ++i) {
+        const int u = r.begin() + i;
+        __builtin_prefetch(vol.Sum(vn, u));
+        for (int j = 64 / sizeof(uint16_t); j < dp; j += 64 / sizeof(uint16_t)) __builtin_prefetch(vol.Sum(vn, u) + j);
+        if (i % 2 == 0) __builtin_prefetch(vol.Cost(vn, u));
+        for (int j = 64; j < dp; j += 64) __builtin_prefetch(vol.Cost(vn, u) + j);
+        b.min[i] = v == H - 1 ? StepStart<Acc::kOut>(vol.Cost(v, u), c.bias, b.L(i), vol.Sum(v, u), dp, s)
+                              : Step<Acc::kOut>(vol.Cost(v, u), c.bias, a.L(i), a.min[i], c.pen.p1,
+                                                c.pen.Eff(c.I(v, u), c.I(v + 1, u)), b.L(i), vol.Sum(v, u), dp, s);
+        bestv[u] = static_cast<uint16_t>(c.wta.template Pixel<kDp>(s, u, off, disp + u, valid + u));
+        if (c.lr) rw.Push(s);
+      }
+      if (c.lr) rw.Finish();
+      std::swap(a, b);
+    }
+  });
 }
 
 }  // namespace
@@ -217,28 +529,77 @@ void SgmParams::Check(int image_height) const {
 
 namespace {
 
-// Census codes into `codes` (W*H), tiled so a tile's codes stay in L1 across all window offsets.
+// Byte vectors for the census: 64 pixels of a row at once.
+using vb = uint8_t __attribute__((vector_size(64)));
+
+// Shuffle mask interleaving the kE-byte elements of two vectors: output element pairs
+// (a[e], b[e]) for e in the lower (kHi = false) or upper half of the elements.
+constexpr uint8_t InterleaveIndex(int e_bytes, bool hi, int i) {
+  const int pair = i / (2 * e_bytes), within = i % (2 * e_bytes), e = pair + (hi ? 32 / e_bytes : 0);
+  return static_cast<uint8_t>(within < e_bytes ? e * e_bytes + within : 64 + e * e_bytes + within - e_bytes);
+}
+template <int kE, bool kHi, size_t... I>
+constexpr vb InterleaveMask(std::index_sequence<I...>) {
+  return vb{InterleaveIndex(kE, kHi, static_cast<int>(I))...};
+}
+template <int kE, bool kHi>
+inline vb Interleave(vb a, vb b) {
+  constexpr vb mask = InterleaveMask<kE, kHi>(std::make_index_sequence<64>{});
+  return __builtin_shuffle(a, b, mask);
+}
+
+// Census codes into `codes` (W*H). Bit-sliced: comparison i (window order, centre skipped) of
+// n = width*height - 1 is code bit p = n-1-i; 64 pixels' bits for one code byte (p / 8) collect
+// in a byte vector (one compare + and + or per comparison and 64 pixels), then 3 rounds of byte,
+// 16-bit and 32-bit interleaving turn the 8 byte planes into 64 codes.
 void CensusInto(const cv::Mat& gray8, int window_width, int window_height, uint64_t* codes) {
   const int W = gray8.cols, H = gray8.rows, rw = window_width / 2, rh = window_height / 2;
-  cv::Mat padded;
-  cv::copyMakeBorder(gray8, padded, rh, rh, rw, rw, cv::BORDER_REPLICATE);
-  constexpr int kTile = 256;
+  const int n = window_width * window_height - 1;
+  cv::Mat padded;  // 64 extra columns on the right: a full vector can be read at every u < W
+  cv::copyMakeBorder(gray8, padded, rh, rh, rw, rw + 64, cv::BORDER_REPLICATE);
+  const ptrdiff_t stride = static_cast<ptrdiff_t>(padded.step);
+  std::vector<ptrdiff_t> offsets;  // neighbour address - centre address, in comparison order
+  for (int dy = -rh; dy <= rh; ++dy)
+    for (int dx = -rw; dx <= rw; ++dx)
+      if (dy != 0 || dx != 0) offsets.push_back(dy * stride + dx);
   tbb::parallel_for(tbb::blocked_range<int>(0, H, 8), [&](const tbb::blocked_range<int>& r) {
-    alignas(64) uint64_t tile[kTile];
+    alignas(64) uint64_t tile[64];
     for (int v = r.begin(); v < r.end(); ++v) {
-      for (int u0 = 0; u0 < W; u0 += kTile) {
-        const int n = std::min(kTile, W - u0);
-        std::fill(tile, tile + n, 0);
-        const uint8_t* __restrict center = padded.ptr<uint8_t>(v + rh) + rw + u0;
-        for (int dy = -rh; dy <= rh; ++dy) {
-          const uint8_t* row = padded.ptr<uint8_t>(v + rh + dy) + rw + u0;
-          for (int dx = -rw; dx <= rw; ++dx) {
-            if (dy == 0 && dx == 0) continue;
-            const uint8_t* __restrict nb = row + dx;
-            for (int u = 0; u < n; ++u) tile[u] = (tile[u] << 1) | static_cast<uint64_t>(nb[u] < center[u]);
-          }
+      for (int u0 = 0; u0 < W; u0 += 64) {
+        const uint8_t* center = padded.ptr<uint8_t>(v + rh) + rw + u0;
+        vb c;
+        std::memcpy(&c, center, sizeof(c));
+        vb plane[8] = {};
+        int k = (n - 1) >> 3;
+        vb acc = {};
+        for (int i = 0; i < n; ++i) {
+          const int p = n - 1 - i;
+          if ((p >> 3) != k) plane[k] = acc, acc = vb{}, k = p >> 3;
+          vb nb;
+          std::memcpy(&nb, center + offsets[i], sizeof(nb));
+          acc |= reinterpret_cast<vb>(nb < c) & static_cast<uint8_t>(1u << (p & 7));
         }
-        std::copy(tile, tile + n, codes + static_cast<size_t>(v) * W + u0);
+        plane[k] = acc;
+        // Byte planes 0..7 (code byte 0 = least significant) -> little-endian uint64 per pixel.
+        vb w16[8], w32[8], w64[8];
+        for (int q = 0; q < 4; ++q)
+          w16[2 * q] = Interleave<1, false>(plane[2 * q], plane[2 * q + 1]),
+          w16[2 * q + 1] = Interleave<1, true>(plane[2 * q], plane[2 * q + 1]);
+        // w16[2q + h]: pixels 32h..32h+31, bytes 2q, 2q+1.
+        for (int h = 0; h < 2; ++h)
+          for (int q = 0; q < 2; ++q) {
+            const vb a = w16[4 * q + h], b = w16[4 * q + 2 + h];  // bytes 4q..4q+1 and 4q+2..4q+3
+            w32[4 * q + 2 * h] = Interleave<2, false>(a, b), w32[4 * q + 2 * h + 1] = Interleave<2, true>(a, b);
+          }
+        // w32[4q + j]: pixels 16j..16j+15, bytes 4q..4q+3.
+        for (int j = 0; j < 4; ++j) {
+          w64[2 * j] = Interleave<4, false>(w32[j], w32[4 + j]);
+          w64[2 * j + 1] = Interleave<4, true>(w32[j], w32[4 + j]);
+        }
+        // w64[m]: pixels 8m..8m+7.
+        std::memcpy(tile, w64, sizeof(tile));
+        const int count = std::min(64, W - u0);
+        std::memcpy(codes + static_cast<size_t>(v) * W + u0, tile, count * sizeof(uint64_t));
       }
     }
   });
@@ -294,155 +655,111 @@ SgmOutput ComputeSgm(const cv::Mat& left_gray8, const cv::Mat& right_gray8, cons
   const uint8_t* img = L.ptr<uint8_t>(0);
   auto I = [&](int v, int u) -> int { return img[static_cast<size_t>(v) * W + u]; };
 
-  // Pass 1: cost and horizontal paths, independent per row.
+  // Pass 1: cost and horizontal paths.
   t0 = std::chrono::steady_clock::now();
   std::atomic<double> cost_ms_total{0};
-  tbb::parallel_for(tbb::blocked_range<int>(0, H, 4), [&](const tbb::blocked_range<int>& r) {
-    LineBuffer buf(2, Dp);
-    std::vector<uint64_t> cr_rev(W);
-    std::vector<uint8_t> ir_rev(W);
-    for (int v = r.begin(); v < r.end(); ++v) {
-      const auto tc = std::chrono::steady_clock::now();
-      const uint64_t* crow = cr.data() + static_cast<size_t>(v) * W;
-      const uint8_t* irow = R.ptr<uint8_t>(v);
-      std::reverse_copy(crow, crow + W, cr_rev.begin());
-      std::reverse_copy(irow, irow + W, ir_rev.begin());
-      ComputeCostRow(P, cl.data() + static_cast<size_t>(v) * W, cr_rev.data(), L.ptr<uint8_t>(v), ir_rev.data(), W, D,
-                     Dp, offset(v), vol.cost.get() + static_cast<size_t>(v) * W * Dp);
-      cost_ms_total.fetch_add(MsSince(tc));
-      uint16_t *prev = buf.L(0), *cur = buf.L(1);
-      uint16_t mp = StepStart<true>(vol.Cost(v, 0), bias.data(), prev, vol.Sum(v, 0), Dp);
-      for (int u = 1; u < W; ++u) {
-        mp = Step<true>(vol.Cost(v, u), bias.data(), prev, mp, pen.p1, pen.Eff(I(v, u), I(v, u - 1)), cur,
-                        vol.Sum(v, u), Dp);
-        std::swap(prev, cur);
-      }
-      mp = StepStart<false>(vol.Cost(v, W - 1), bias.data(), prev, vol.Sum(v, W - 1), Dp);
-      for (int u = W - 2; u >= 0; --u) {
-        mp = Step<false>(vol.Cost(v, u), bias.data(), prev, mp, pen.p1, pen.Eff(I(v, u), I(v, u + 1)), cur,
-                         vol.Sum(v, u), Dp);
-        std::swap(prev, cur);
-      }
+  {
+    const CostContext ctx{vol, bias.data(), pen, img, P, W, H, D, Dp, cl.data(), cr.data(), L, R, &cost_ms_total};
+    switch (nchunks) {
+      case 1: CostAndHorizontalPaths<1>(ctx, P.num_paths == 4); break;
+      case 2: CostAndHorizontalPaths<2>(ctx, P.num_paths == 4); break;
+      case 3: CostAndHorizontalPaths<3>(ctx, P.num_paths == 4); break;
+      case 4: CostAndHorizontalPaths<4>(ctx, P.num_paths == 4); break;
+      default: CostAndHorizontalPaths<0>(ctx, P.num_paths == 4); break;
     }
-  });
-
-  // Passes 2 and 3: sweep rows; each row's columns are independent given the previous row.
-  const int ndirs = P.num_paths == 8 ? 3 : 1;
-  const int dus[3] = {0, 1, -1};  // previous pixel column = u - du
-  if (ndirs == 1) {
-    // Vertical paths only: columns are independent, so blocks of columns sweep the whole
-    // image without a barrier per row.
-    tbb::parallel_for(tbb::blocked_range<int>(0, W, 256), [&](const tbb::blocked_range<int>& r) {
-      const int n = static_cast<int>(r.size());
-      LineBuffer a(n, Dp), b(n, Dp);
-      for (int sweep = 0; sweep < 2; ++sweep)
-        for (int step = 0; step < H; ++step) {
-          const int v = sweep == 0 ? step : H - 1 - step, vp = sweep == 0 ? v - 1 : v + 1;
-          for (int i = 0; i < n; ++i) {
-            const int u = r.begin() + i;
-            b.min[i] = step == 0 ? StepStart<false>(vol.Cost(v, u), bias.data(), b.L(i), vol.Sum(v, u), Dp)
-                                 : Step<false>(vol.Cost(v, u), bias.data(), a.L(i), a.min[i], pen.p1,
-                                               pen.Eff(I(v, u), I(vp, u)), b.L(i), vol.Sum(v, u), Dp);
-          }
-          std::swap(a, b);
-        }
-    });
   }
-  for (int sweep = 0; sweep < 2 && ndirs > 1; ++sweep) {
-    std::vector<LineBuffer> prevb, curb;
-    for (int d = 0; d < ndirs; ++d) prevb.emplace_back(W, Dp), curb.emplace_back(W, Dp);
-    for (int step = 0; step < H; ++step) {
-      const int v = sweep == 0 ? step : H - 1 - step;
-      const int vp = sweep == 0 ? v - 1 : v + 1;
-      tbb::parallel_for(tbb::blocked_range<int>(0, W, 64), [&](const tbb::blocked_range<int>& r) {
-        for (int u = r.begin(); u < r.end(); ++u) {
-          for (int d = 0; d < ndirs; ++d) {
-            const int up = u - dus[d];
-            if (step == 0 || up < 0 || up >= W) {
-              curb[d].min[u] = StepStart<false>(vol.Cost(v, u), bias.data(), curb[d].L(u), vol.Sum(v, u), Dp);
-            } else {
-              curb[d].min[u] = Step<false>(vol.Cost(v, u), bias.data(), prevb[d].L(up), prevb[d].min[up], pen.p1,
-                                           pen.Eff(I(v, u), I(vp, up)), curb[d].L(u), vol.Sum(v, u), Dp);
+
+  // Right-view winners (left-right check) packed per target pixel, and the left winners.
+  thread_local std::vector<uint32_t> tls_right;
+  thread_local std::vector<uint16_t> tls_best;
+  std::vector<uint32_t>& right = tls_right;
+  std::vector<uint16_t>& best = tls_best;
+  const bool lr = P.lr_max_diff >= 0;
+  if (lr) right.assign(static_cast<size_t>(W) * H, kNoMatch);
+  best.resize(static_cast<size_t>(W) * H);
+  out.disparity.create(H, W, CV_32F);
+  out.valid.create(H, W, CV_8U);
+  const Wta wta(P, W, Dp);
+  double wta_ms = 0;
+
+  if (P.num_paths == 4) {
+    // Vertical paths: columns are independent, so blocks of columns sweep the whole image
+    // without a barrier per row. The upward sweep is the last path: it hands each pixel's final
+    // sums straight to winner-takes-all instead of storing them.
+    const VerticalContext ctx{vol, bias.data(), pen, img, P, W, H, D, Dp, lr, wta, best.data(), right.data(), &out};
+    switch (nchunks) {
+      case 1: VerticalPathsAndWta<1>(ctx); break;
+      case 2: VerticalPathsAndWta<2>(ctx); break;
+      case 3: VerticalPathsAndWta<3>(ctx); break;
+      case 4: VerticalPathsAndWta<4>(ctx); break;
+      default: VerticalPathsAndWta<0>(ctx); break;
+    }
+  } else {
+    // With diagonals: sweep rows; each row's columns are independent given the previous row.
+    const int dus[3] = {0, 1, -1};  // previous pixel column = u - du
+    for (int sweep = 0; sweep < 2; ++sweep) {
+      std::vector<LineBuffer> prevb, curb;
+      for (int d = 0; d < 3; ++d) prevb.emplace_back(W, Dp), curb.emplace_back(W, Dp);
+      for (int step = 0; step < H; ++step) {
+        const int v = sweep == 0 ? step : H - 1 - step;
+        const int vp = sweep == 0 ? v - 1 : v + 1;
+        tbb::parallel_for(tbb::blocked_range<int>(0, W, 64), [&](const tbb::blocked_range<int>& r) {
+          for (int u = r.begin(); u < r.end(); ++u) {
+            for (int d = 0; d < 3; ++d) {
+              const int up = u - dus[d];
+              if (step == 0 || up < 0 || up >= W) {
+                curb[d].min[u] = StepStart<Acc::kAdd>(vol.Cost(v, u), bias.data(), curb[d].L(u), vol.Sum(v, u), Dp);
+              } else {
+                curb[d].min[u] = Step<Acc::kAdd>(vol.Cost(v, u), bias.data(), prevb[d].L(up), prevb[d].min[up], pen.p1,
+                                                 pen.Eff(I(v, u), I(vp, up)), curb[d].L(u), vol.Sum(v, u), Dp);
+              }
             }
           }
-        }
-      });
-      std::swap(prevb, curb);
+        });
+        std::swap(prevb, curb);
+      }
     }
+    const auto tw = std::chrono::steady_clock::now();
+    tbb::parallel_for(tbb::blocked_range<int>(0, H, 4), [&](const tbb::blocked_range<int>& r) {
+      RightWinners<> rw(D, Dp);
+      for (int v = r.begin(); v < r.end(); ++v) {
+        const int off = offset(v);
+        float* disp = out.disparity.ptr<float>(v);
+        uint8_t* valid = out.valid.ptr<uint8_t>(v);
+        uint16_t* bestv = best.data() + static_cast<size_t>(v) * W;
+        if (lr) rw.Start(right.data() + static_cast<size_t>(v) * W, W, 0, off);
+        for (int u = 0; u < W; ++u) {
+          bestv[u] = static_cast<uint16_t>(wta.Pixel(vol.Sum(v, u), u, off, disp + u, valid + u));
+          if (lr) rw.Push(vol.Sum(v, u));
+        }
+        if (lr) rw.Finish();
+      }
+    });
+    wta_ms = MsSince(tw);
   }
-  out.aggregation_ms = MsSince(t0);
+  out.aggregation_ms = MsSince(t0) - wta_ms;
   out.cost_ms = cost_ms_total.load();
 
-  // Pass 4: winner-takes-all, uniqueness, sub-pixel, left-right check.
+  // Left-right check: the right-view winner of the matched target pixel must agree.
   t0 = std::chrono::steady_clock::now();
-  out.disparity = cv::Mat::zeros(H, W, CV_32F);
-  out.valid = cv::Mat::zeros(H, W, CV_8U);
-  vs16 iota;
-  for (int i = 0; i < kLanes; ++i) iota[i] = static_cast<int16_t>(i);
-  const bool lr = P.lr_max_diff >= 0;
-  tbb::parallel_for(tbb::blocked_range<int>(0, H, 4), [&](const tbb::blocked_range<int>& r) {
-    std::vector<int> best(W);
-    // Right-view winner per target column x, stored at y = W - 1 - x (+ Dp margin) so that one
-    // left pixel's candidates form a forward contiguous run: y = W - 1 - u + off + k.
-    std::vector<uint16_t> rcost(W + 2 * Dp), rk(W + 2 * Dp);
-    for (int v = r.begin(); v < r.end(); ++v) {
-      const int off = offset(v);
-      float* disp = out.disparity.ptr<float>(v);
-      uint8_t* valid = out.valid.ptr<uint8_t>(v);
-      std::fill(rcost.begin(), rcost.end(), 0xFFFF);
-      for (int u = 0; u < W; ++u) {
-        const uint16_t* S = vol.Sum(v, u);
-        v16 mn = Splat(0xFFFF);
-        for (int j = 0; j < Dp; j += kLanes) mn = VMin(mn, Load(S + j));
-        const uint16_t smin = HMin(mn);
-        int b = 0;
-        for (int j = 0; j < Dp; j += kLanes) {
-          const int i = FirstEqual(Load(S + j), smin);
-          if (i >= 0) {
-            b = j + i;
-            break;
-          }
+  if (lr) {
+    tbb::parallel_for(tbb::blocked_range<int>(0, H, 16), [&](const tbb::blocked_range<int>& r) {
+      for (int v = r.begin(); v < r.end(); ++v) {
+        const int off = offset(v);
+        float* disp = out.disparity.ptr<float>(v);
+        uint8_t* valid = out.valid.ptr<uint8_t>(v);
+        const uint16_t* bestv = best.data() + static_cast<size_t>(v) * W;
+        const uint32_t* rv = right.data() + static_cast<size_t>(v) * W;
+        for (int u = 0; u < W; ++u) {
+          if (!valid[u]) continue;
+          const uint32_t rx = rv[u - off - bestv[u]];  // in range: checked by Wta::Pixel
+          if (rx == kNoMatch || std::abs(static_cast<int>(rx & 0xFFFF) - bestv[u]) > P.lr_max_diff)
+            valid[u] = 0, disp[u] = 0.0f;
         }
-        best[u] = b;
-        const int y0 = W - 1 - u + off;
-        if (lr && y0 + Dp > 0 && y0 < W) {
-          uint16_t* rc = rcost.data() + Dp + y0;
-          uint16_t* rki = rk.data() + Dp + y0;
-          for (int j = 0; j < Dp; j += kLanes) {
-            const v16 s = Load(S + j), c = Load(rc + j);
-            const v16 better = s < c;  // strict: the smallest k wins ties (u ascending = k ascending)
-            Store(rc + j, better ? s : c);
-            Store(rki + j, better ? reinterpret_cast<v16>(iota) + static_cast<uint16_t>(j) : Load(rki + j));
-          }
-        }
-        bool ok = true;
-        if (P.uniqueness_ratio > 0) {
-          const vs16 lo = vs16{} + static_cast<int16_t>(b - 1), hi = vs16{} + static_cast<int16_t>(b + 1);
-          v16 m2 = Splat(0xFFFF);
-          for (int j = 0; j < Dp; j += kLanes) {
-            const vs16 idx = iota + static_cast<int16_t>(j);
-            const vs16 excl = (idx >= lo) & (idx <= hi);
-            m2 = VMin(m2, Load(S + j) | reinterpret_cast<v16>(excl));
-          }
-          const int s2 = HMin(m2);
-          if (s2 * (100 - P.uniqueness_ratio) < static_cast<int>(smin) * 100) ok = false;
-        }
-        const int x = u - off - b;
-        if (x < 0 || x >= W) ok = false;
-        float sub = 0.0f;
-        if (P.subpixel != SubpixelMode::kNone && b > 0 && b < D - 1) sub = SubpixelOffset(S[b - 1], S[b], S[b + 1], P.subpixel);
-        valid[u] = ok ? 255 : 0;
-        disp[u] = ok ? static_cast<float>(off + b) + sub : 0.0f;
       }
-      if (!lr) continue;
-      for (int u = 0; u < W; ++u) {
-        if (!valid[u]) continue;
-        const int y = W - 1 - (u - off - best[u]) + Dp;  // x checked in range above
-        if (rcost[y] == 0xFFFF || std::abs(int(rk[y]) - best[u]) > P.lr_max_diff) valid[u] = 0, disp[u] = 0.0f;
-      }
-    }
-  });
-  out.wta_ms = MsSince(t0);
+    });
+  }
+  out.wta_ms = wta_ms + MsSince(t0);
   return out;
 }
 

@@ -1,5 +1,6 @@
 #include "stages/disparity/sgm.h"
 
+#include <algorithm>
 #include <cstring>
 #include <random>
 #include <stdexcept>
@@ -77,6 +78,58 @@ TEST(Sgm, MatchesReference631x479WithRowOffset) {
   p.row_offset.resize(479);
   for (int v = 0; v < 479; ++v) p.row_offset[v] = 1 + v * 7 / 479;
   ExpectIdentical(ComputeSgm(l, r, p), ComputeSgmReference(l, r, p));
+}
+
+// 4 paths over several column blocks (256 wide): the fused upward pass + winner-takes-all and the
+// right-view winners merged across block borders must still match the reference.
+TEST(Sgm, MatchesReferenceFourPathsAcrossColumnBlocks) {
+  struct Case {
+    int W, H, min_d, num_d, lr;
+    bool offsets;
+  };
+  const Case cases[] = {{700, 37, -2, 40, 1, true}, {531, 21, 3, 33, 0, false}, {769, 17, 0, 112, 2, false}};
+  for (const Case& c : cases) {
+    cv::Mat l, r;
+    MakePair(c.W, c.H, c.W + 1, &l, &r);
+    SgmParams p;
+    p.num_paths = 4;
+    p.min_disparity = c.min_d;
+    p.num_disparities = c.num_d;
+    p.lr_max_diff = c.lr;
+    if (c.offsets) {
+      p.row_offset.resize(c.H);
+      for (int v = 0; v < c.H; ++v) p.row_offset[v] = (v * 5) / c.H - 1;
+    }
+    SCOPED_TRACE(testing::Message() << c.W << "x" << c.H << " D=" << c.num_d);
+    ExpectIdentical(ComputeSgm(l, r, p), ComputeSgmReference(l, r, p));
+  }
+}
+
+// Census codes against the definition written out (bit = I(q) < I(p), first compared pixel in
+// the most significant used bit, borders replicated), at widths around the 64-pixel vector.
+TEST(Sgm, CensusMatchesDefinition) {
+  const int sizes[][2] = {{3, 3}, {5, 5}, {9, 7}, {7, 5}, {13, 5}};
+  for (const int W : {1, 63, 64, 65, 131}) {
+    cv::Mat img(11, W, CV_8U);
+    cv::RNG rng(W);
+    rng.fill(img, cv::RNG::UNIFORM, 0, 256);
+    for (const auto& wh : sizes) {
+      const std::vector<uint64_t> codes = CensusTransform(img, wh[0], wh[1]);
+      int wrong = 0;
+      for (int v = 0; v < img.rows; ++v)
+        for (int u = 0; u < W; ++u) {
+          uint64_t want = 0;
+          for (int dy = -wh[1] / 2; dy <= wh[1] / 2; ++dy)
+            for (int dx = -wh[0] / 2; dx <= wh[0] / 2; ++dx) {
+              if (dx == 0 && dy == 0) continue;
+              const int y = std::clamp(v + dy, 0, img.rows - 1), x = std::clamp(u + dx, 0, W - 1);
+              want = (want << 1) | (img.at<uint8_t>(y, x) < img.at<uint8_t>(v, u) ? 1u : 0u);
+            }
+          wrong += codes[static_cast<size_t>(v) * W + u] != want;
+        }
+      EXPECT_EQ(wrong, 0) << W << " wide, window " << wh[0] << "x" << wh[1];
+    }
+  }
 }
 
 TEST(Sgm, Nominal) {

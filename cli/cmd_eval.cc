@@ -1,0 +1,414 @@
+// roadsurvey eval disparity|damage|trajectory: the stages' evaluation code on plain files
+// (estimate first, truth second), a table for people and --json for machines.
+#include <fmt/format.h>
+
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <optional>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "cli/command.h"
+#include "cli/tool_util.h"
+#include "formats/geojson/geojson.h"
+#include "formats/input_error.h"
+#include "formats/trajectory/trajectory_file.h"
+#include "stages/damage/damage_eval.h"
+#include "stages/disparity/disparity_eval.h"
+#include "stages/disparity/disparity_io.h"
+#include "stages/slam/trajectory_report.h"
+
+namespace rs {
+namespace fs = std::filesystem;
+namespace {
+
+// ---------------------------------------------------------------- disparity
+
+cv::Mat ReadKitti(const fs::path& path, cv::Mat* valid) {
+  const cv::Mat png = ReadImageAnyDepth(path, true);
+  if (png.depth() != CV_16U)
+    throw InputError(InputLocation::File(path.string()), "expected a KITTI 16-bit disparity PNG (d * 256)");
+  cv::Mat d, v;
+  FromKittiDisparity16(png, &d, &v);
+  if (valid) *valid = v;
+  return d;
+}
+
+/// Pools per-file metrics as if all pixels were one image: plain fields weigh by evaluated
+/// pixels, *_est and EPE by valid estimates.
+DisparityMetrics Pool(const std::vector<DisparityMetrics>& parts) {
+  DisparityMetrics t;
+  double n_valid = 0;
+  for (const auto& m : parts) {
+    const double n = double(m.evaluated), k = m.density * n;
+    t.evaluated += m.evaluated, n_valid += k;
+    t.bad1 += m.bad1 * n, t.bad2 += m.bad2 * n, t.bad3 += m.bad3 * n, t.d1 += m.d1 * n;
+    t.bad1_est += m.bad1_est * k, t.bad2_est += m.bad2_est * k, t.bad3_est += m.bad3_est * k;
+    t.d1_est += m.d1_est * k, t.epe += m.epe * k;
+  }
+  if (t.evaluated == 0) return DisparityMetrics{};
+  const double n = double(t.evaluated);
+  t.density = n_valid / n;
+  t.bad1 /= n, t.bad2 /= n, t.bad3 /= n, t.d1 /= n;
+  if (n_valid > 0) t.bad1_est /= n_valid, t.bad2_est /= n_valid, t.bad3_est /= n_valid, t.d1_est /= n_valid,
+                   t.epe /= n_valid;
+  return t;
+}
+
+nlohmann::json ToJson(const DisparityMetrics& m) {
+  if (m.evaluated == 0) return nullptr;
+  return {{"evaluated", m.evaluated}, {"density", m.density}, {"bad1", m.bad1},         {"bad2", m.bad2},
+          {"bad3", m.bad3},           {"d1", m.d1},           {"bad1_est", m.bad1_est}, {"bad2_est", m.bad2_est},
+          {"bad3_est", m.bad3_est},   {"d1_est", m.d1_est},   {"epe_px", m.epe}};
+}
+
+std::string Row(const std::string& name, const std::string& region, const DisparityMetrics& m) {
+  if (m.evaluated == 0) return fmt::format("{:<24} {:<7} {:>10}   (no truth pixels)\n", name, region, 0);
+  return fmt::format("{:<24} {:<7} {:>10} {:>7.1f}% {:>7.2f}% {:>7.2f}% {:>7.2f}% {:>7.2f}% {:>7.3f}\n", name, region,
+                     m.evaluated, 100 * m.density, 100 * m.bad1, 100 * m.bad2, 100 * m.bad3, 100 * m.d1, m.epe);
+}
+
+struct DisparityArgs {
+  std::string est, gt, mask, noc, json;
+};
+
+int RunEvalDisparity(const DisparityArgs& a) {
+  const auto pairs = PairFiles(a.est, a.gt, ".png");
+  std::vector<FilePair> masks, nocs;
+  if (!a.mask.empty()) masks = PairFiles(a.est, a.gt, ".png", a.mask);
+  if (!a.noc.empty()) nocs = PairFiles(a.est, a.gt, ".png", a.noc);
+  std::vector<DisparityMetrics> all, nonocc, masked;
+  nlohmann::json files = nlohmann::json::array();
+  std::string table = fmt::format("{:<24} {:<7} {:>10} {:>8} {:>8} {:>8} {:>8} {:>8} {:>7}\n", "file", "region",
+                                  "pixels", "density", "bad-1", "bad-2", "bad-3", "D1", "EPE px");
+  for (size_t i = 0; i < pairs.size(); ++i) {
+    cv::Mat valid;
+    const cv::Mat est = ReadKitti(pairs[i].est, &valid), gt = ReadKitti(pairs[i].truth, nullptr);
+    if (est.size() != gt.size())
+      throw InputError(InputLocation::File(pairs[i].est.string()),
+                       fmt::format("size {}x{} differs from the truth's {}x{}", est.cols, est.rows, gt.cols, gt.rows));
+    auto region = [&](const FilePair& p) {
+      const cv::Mat r = ReadImageAnyDepth(p.extra, false);
+      if (r.size() != gt.size())
+        throw InputError(InputLocation::File(p.extra.string()), "size differs from the truth's");
+      cv::Mat grey = r;
+      if (r.channels() > 1) cv::cvtColor(r, grey, cv::COLOR_BGR2GRAY);
+      return cv::Mat(grey != 0);
+    };
+    all.push_back(EvaluateDisparity(est, valid, gt));
+    nlohmann::json f = {{"name", pairs[i].name}, {"all", ToJson(all.back())}};
+    table += Row(pairs[i].name, "all", all.back());
+    if (!nocs.empty()) {
+      nonocc.push_back(EvaluateDisparity(est, valid, gt, region(nocs[i])));
+      f["nonocc"] = ToJson(nonocc.back());
+      table += Row("", "noc", nonocc.back());
+    }
+    if (!masks.empty()) {
+      masked.push_back(EvaluateDisparity(est, valid, gt, region(masks[i])));
+      f["mask"] = ToJson(masked.back());
+      table += Row("", "mask", masked.back());
+    }
+    files.push_back(std::move(f));
+  }
+  nlohmann::json total = {{"all", ToJson(Pool(all))}};
+  if (pairs.size() > 1) table += Row(fmt::format("TOTAL ({} files)", pairs.size()), "all", Pool(all));
+  if (!nocs.empty()) {
+    total["nonocc"] = ToJson(Pool(nonocc));
+    if (pairs.size() > 1) table += Row("", "noc", Pool(nonocc));
+  }
+  if (!masks.empty()) {
+    total["mask"] = ToJson(Pool(masked));
+    if (pairs.size() > 1) table += Row("", "mask", Pool(masked));
+  }
+  if (a.json != "-") fmt::print("{}", table);
+  if (a.json != "-") fmt::print("bad-N, D1: share of truth pixels with |d - gt| > N px (D1: > 3 px and > 5 %) or no estimate; "
+             "EPE over valid estimates\n");
+  if (!a.json.empty())
+    WriteTextOutput(a.json, nlohmann::json{{"schema", "roadsurvey.eval_disparity/1"}, {"files", files}, {"total", total}}
+                                    .dump(2) + "\n");
+  return kExitOk;
+}
+
+// ---------------------------------------------------------------- damage
+
+/// Single-channel label image (any channel non-zero counts for colour masks), CV_32S.
+cv::Mat ReadLabels(const fs::path& path, bool components) {
+  const cv::Mat image = ReadImageAnyDepth(path, false);
+  cv::Mat labels;
+  if (image.channels() == 1) {
+    image.convertTo(labels, CV_32S);
+  } else {
+    std::vector<cv::Mat> ch;
+    cv::split(image, ch);
+    cv::Mat any = ch[0] != 0;
+    for (size_t i = 1; i < ch.size(); ++i) any |= ch[i] != 0;
+    any.convertTo(labels, CV_32S, 1.0 / 255);
+  }
+  if (components) {
+    cv::Mat cc;
+    cv::connectedComponents(labels != 0, cc, 8, CV_32S);
+    return cc;
+  }
+  return labels;
+}
+
+double Field(const nlohmann::json& j, const char* key) {
+  const auto it = j.find(key);
+  return it != j.end() && it->is_number() ? it->get<double>() : std::numeric_limits<double>::quiet_NaN();
+}
+
+std::vector<DamageInstance> ReadDetections(const fs::path& path) {
+  std::ifstream in(path);
+  if (!in) throw InputError(InputLocation::File(path.string()), "cannot open detections JSON");
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(in);
+  } catch (const nlohmann::json::parse_error& e) {
+    throw InputError(InputLocation::Byte(path.string(), int64_t(e.byte)), e.what());
+  }
+  if (!j.is_object() || !j.contains("detections") || !j["detections"].is_array())
+    throw InputError(InputLocation::File(path.string()), "expected {\"detections\": [...]}");
+  std::vector<DamageInstance> out;
+  for (const auto& d : j["detections"]) {
+    if (!d.is_object() || !d.contains("id") || !d["id"].is_number_integer())
+      throw InputError(InputLocation::File(path.string()), "a detection without an integer \"id\"");
+    DamageInstance inst;
+    inst.id = d["id"].get<int>();
+    inst.area_m2 = Field(d, "area_m2"), inst.max_depth_m = Field(d, "max_depth_m"), inst.volume_m3 = Field(d, "volume_m3");
+    out.push_back(inst);
+  }
+  return out;
+}
+
+std::vector<TruthInstance> ReadTruthGeoJson(const fs::path& path) {
+  const geojson::FeatureCollection fc = geojson::ReadFeatureCollection(path);
+  std::vector<TruthInstance> out;
+  for (size_t i = 0; i < fc.features.size(); ++i) {
+    const nlohmann::json& p = fc.features[i].properties;
+    if (!p.is_object() || !p.contains("id") || !p["id"].is_number_integer())
+      throw InputError(InputLocation::File(path.string()),
+                       fmt::format("feature {} has no integer \"id\" property (the mask label)", i));
+    TruthInstance t;
+    t.id = p["id"].get<int>();
+    t.area_m2 = Field(p, "area_m2"), t.max_depth_m = Field(p, "max_depth_m"), t.volume_m3 = Field(p, "volume_m3");
+    out.push_back(t);
+  }
+  return out;
+}
+
+struct DamageArgs {
+  std::string labels, truth_masks, detections, truth, json;
+  bool components = false;
+  double min_iou = 0.5;
+};
+
+/// Count, mean signed error (bias) and mean absolute error of finite values.
+struct ErrorSummary {
+  int n = 0;
+  double bias = 0, mae = 0;
+  void Add(double e) {
+    if (std::isfinite(e)) ++n, bias += e, mae += std::abs(e);
+  }
+  nlohmann::json Json() const {
+    if (n == 0) return nullptr;
+    return {{"count", n}, {"bias", bias / n}, {"mean_abs", mae / n}};
+  }
+};
+
+int RunEvalDamage(const DamageArgs& a) {
+  const auto pairs = PairFiles(a.labels, a.truth_masks, ".png");
+  std::vector<TruthInstance> truth;
+  if (!a.truth.empty()) truth = ReadTruthGeoJson(a.truth);
+  PixelMetrics pooled;
+  int predicted = 0, truth_n = 0, tp = 0;
+  ErrorSummary area, depth, volume;
+  nlohmann::json files = nlohmann::json::array();
+  std::string table = fmt::format("{:<24} {:>9} {:>7} {:>7} {:>7} {:>5} {:>5} {:>4} {:>4} {:>4}\n", "file",
+                                  "precision", "recall", "F1", "IoU", "pred", "truth", "TP", "FP", "FN");
+  for (const auto& p : pairs) {
+    const cv::Mat pred = ReadLabels(p.est, false), gt = ReadLabels(p.truth, a.components);
+    if (pred.size() != gt.size())
+      throw InputError(InputLocation::File(p.est.string()), fmt::format("size {}x{} differs from the truth's {}x{}",
+                                                                        pred.cols, pred.rows, gt.cols, gt.rows));
+    std::vector<DamageInstance> dets;
+    if (!a.detections.empty()) {
+      const fs::path json = fs::path(a.detections) / (fs::path(p.name).stem().string() + ".json");
+      dets = ReadDetections(json);
+    }
+    const PixelMetrics px = ComparePixels(pred != 0, gt != 0);
+    pooled.Add(px);
+    const InstanceEvaluation inst = MatchInstances(pred, gt, dets, truth, a.min_iou);
+    predicted += inst.predicted, truth_n += inst.truth, tp += int(inst.matches.size());
+    nlohmann::json matches = nlohmann::json::array();
+    for (const auto& m : inst.matches) {
+      area.Add(m.area_error_m2), depth.Add(m.max_depth_error_m), volume.Add(m.volume_error_m3);
+      auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
+      matches.push_back({{"predicted_id", m.predicted_id}, {"truth_id", m.truth_id}, {"iou", m.iou},
+                         {"area_error_m2", num(m.area_error_m2)}, {"max_depth_error_m", num(m.max_depth_error_m)},
+                         {"volume_error_m3", num(m.volume_error_m3)}});
+    }
+    table += fmt::format("{:<24} {:>9.3f} {:>7.3f} {:>7.3f} {:>7.3f} {:>5} {:>5} {:>4} {:>4} {:>4}\n", p.name,
+                         px.precision, px.recall, px.f1, px.iou, inst.predicted, inst.truth, inst.matches.size(),
+                         inst.false_positives, inst.false_negatives);
+    files.push_back({{"name", p.name},
+                     {"pixels", {{"tp", px.tp}, {"fp", px.fp}, {"fn", px.fn}, {"precision", px.precision},
+                                 {"recall", px.recall}, {"f1", px.f1}, {"iou", px.iou}}},
+                     {"instances", {{"predicted", inst.predicted}, {"truth", inst.truth},
+                                    {"false_positives", inst.false_positives},
+                                    {"false_negatives", inst.false_negatives}, {"matches", matches}}}});
+  }
+  pooled.Finish();
+  const double ip = predicted ? double(tp) / predicted : 0, ir = truth_n ? double(tp) / truth_n : 0;
+  const double if1 = ip + ir > 0 ? 2 * ip * ir / (ip + ir) : 0;
+  table += fmt::format("{:<24} {:>9.3f} {:>7.3f} {:>7.3f} {:>7.3f} {:>5} {:>5} {:>4} {:>4} {:>4}\n",
+                       fmt::format("TOTAL ({} files)", pairs.size()), pooled.precision, pooled.recall, pooled.f1,
+                       pooled.iou, predicted, truth_n, tp, predicted - tp, truth_n - tp);
+  if (a.json != "-") fmt::print("{}", table);
+  if (a.json != "-") fmt::print("pixels: damage vs no damage, pooled over files; instances: one-to-one at IoU >= {:.2f}: "
+             "precision {:.3f}, recall {:.3f}, F1 {:.3f}\n",
+             a.min_iou, ip, ir, if1);
+  auto line = [](const char* what, const ErrorSummary& s, double unit, const char* u) {
+    if (s.n == 0) return fmt::format("  {:<10} no pair with both values\n", what);
+    return fmt::format("  {:<10} bias {:+.4g} {}, mean |error| {:.4g} {} over {} matches\n", what, s.bias / s.n * unit,
+                       u, s.mae / s.n * unit, u, s.n);
+  };
+  if (a.json != "-" && (!a.detections.empty() || !a.truth.empty()))
+    fmt::print("measurement errors (predicted - truth):\n{}{}{}", line("area", area, 1e4, "cm2"),
+               line("max depth", depth, 1e3, "mm"), line("volume", volume, 1e6, "cm3"));
+  if (!a.json.empty()) {
+    nlohmann::json total = {
+        {"pixels", {{"tp", pooled.tp}, {"fp", pooled.fp}, {"fn", pooled.fn}, {"precision", pooled.precision},
+                    {"recall", pooled.recall}, {"f1", pooled.f1}, {"iou", pooled.iou}}},
+        {"instances", {{"predicted", predicted}, {"truth", truth_n}, {"matched", tp}, {"precision", ip},
+                       {"recall", ir}, {"f1", if1}, {"min_iou", a.min_iou}}},
+        {"area_error_m2", area.Json()}, {"max_depth_error_m", depth.Json()}, {"volume_error_m3", volume.Json()}};
+    WriteTextOutput(a.json, nlohmann::json{{"schema", "roadsurvey.eval_damage/1"}, {"files", files}, {"total", total}}
+                                    .dump(2) + "\n");
+  }
+  return kExitOk;
+}
+
+// ---------------------------------------------------------------- trajectory
+
+/// "5" or "5f" frames, "1.5s" seconds, "100m" metres.
+RelativeDelta ParseDelta(const std::string& text, const std::string& flag) {
+  RelativeDelta d;
+  std::string number = text;
+  if (!text.empty() && std::string("fsm").find(text.back()) != std::string::npos) {
+    d.unit = text.back() == 's' ? RelativeDelta::Unit::kSeconds
+             : text.back() == 'm' ? RelativeDelta::Unit::kMeters
+                                  : RelativeDelta::Unit::kFrames;
+    number.pop_back();
+  }
+  size_t used = 0;
+  try {
+    d.value = std::stod(number, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  const bool whole = d.unit != RelativeDelta::Unit::kFrames || d.value == std::floor(d.value);
+  if (number.empty() || used != number.size() || !(d.value > 0) || !std::isfinite(d.value) || !whole)
+    throw OptionError(fmt::format("{} = '{}' violates N (frames, whole), Ns (seconds) or Nm (metres) with N > 0",
+                                  flag, text));
+  return d;
+}
+
+int64_t SecondsToNs(double s, const std::string& flag) {
+  if (!std::isfinite(s) || std::abs(s) > 9e9) throw OptionError(fmt::format("{} = {} is not a usable time", flag, s));
+  return std::llround(s * 1e9);
+}
+
+struct TrajectoryArgs {
+  std::string est, gt, align = "se3", format = "auto", gt_format = "auto", kitti_times, json;
+  bool by_index = false;
+  double max_time_diff_s = 0.02, time_offset_s = 0;
+  std::string rde_delta = "1", rpe_delta = "1";
+};
+
+int RunEvalTrajectory(const TrajectoryArgs& a) {
+  TrajectoryEvalOptions o;
+  o.alignment = *ParseTrajectoryAlignment(a.align);
+  o.associate_by_index = a.by_index;
+  o.max_time_difference_ns = SecondsToNs(a.max_time_diff_s, "--max-time-diff");
+  o.est_time_offset_ns = SecondsToNs(a.time_offset_s, "--time-offset");
+  o.rde_delta = ParseDelta(a.rde_delta, "--rde-delta");
+  o.rpe_delta = ParseDelta(a.rpe_delta, "--rpe-delta");
+  if (const std::string problem = o.Check(); !problem.empty()) throw OptionError(problem);
+  auto format = [](const std::string& name) {
+    return name == "auto" ? std::nullopt : ParseTrajectoryFormat(name);
+  };
+  std::optional<fs::path> times;
+  if (!a.kitti_times.empty()) times = a.kitti_times;
+  const Trajectory est = ReadTrajectory(a.est, format(a.format), times);
+  const Trajectory gt = ReadTrajectory(a.gt, format(a.gt_format), times);
+  if (!o.associate_by_index && (!est.has_times || !gt.has_times)) {
+    o.associate_by_index = true;
+    fmt::print(stderr, "note: {} has no timestamps (KITTI poses without --kitti-times): associating by index\n",
+               est.has_times ? a.gt : a.est);
+  }
+  const TrajectoryEvalReport report = EvaluateTrajectory(est, gt, o);
+  if (a.json != "-") fmt::print("{}", FormatTrajectoryEvalTable(report));
+  if (!a.json.empty()) WriteTextOutput(a.json, TrajectoryEvalReportToJson(report).dump(2) + "\n");
+  return kExitOk;
+}
+
+}  // namespace
+
+Command EvalCommand() {
+  return {"eval", "Evaluate results against ground truth: disparity maps, damage labels, trajectories",
+          [](CLI::App& app, const StageRegistry&) -> std::function<int()> {
+            app.require_subcommand(1);
+            auto d = std::make_shared<DisparityArgs>();
+            CLI::App* disp = app.add_subcommand("disparity", "KITTI 16-bit disparity PNGs vs truth: bad-1/2/3, D1, EPE");
+            disp->add_option("estimate", d->est, "estimated disparity PNG, or a folder of them")->required();
+            disp->add_option("truth", d->gt, "truth disparity PNG (0 = unknown), or a folder (paired by file name)")
+                ->required();
+            disp->add_option("--noc", d->noc,
+                             "non-occluded region: KITTI disp_noc PNG/folder (non-zero pixels are evaluated)");
+            disp->add_option("--mask", d->mask, "evaluation mask PNG/folder (non-zero = evaluate), e.g. road pixels");
+            disp->add_option("--json", d->json, "write the metrics as JSON ('-' = stdout)");
+
+            auto g = std::make_shared<DamageArgs>();
+            CLI::App* dmg = app.add_subcommand("damage", "damage label PNGs vs truth masks: pixel and instance metrics");
+            dmg->add_option("labels", g->labels, "predicted 16-bit instance label PNG, or a folder of them")->required();
+            dmg->add_option("truth", g->truth_masks, "truth mask/label PNG, or a folder (paired by file name)")
+                ->required();
+            dmg->add_option("--detections", g->detections,
+                            "folder of detections JSON (<frame>.json) with the predicted measurements");
+            dmg->add_option("--truth", g->truth, "truth damages.geojson (properties id, area_m2, max_depth_m, volume_m3)");
+            dmg->add_flag("--components", g->components,
+                          "truth is a binary mask: its 8-connected components are the truth instances");
+            dmg->add_option("--min-iou", g->min_iou, "IoU a predicted and a truth instance need to match")
+                ->check(CLI::Range(0.01, 1.0));
+            dmg->add_option("--json", g->json, "write the metrics as JSON ('-' = stdout)");
+
+            auto t = std::make_shared<TrajectoryArgs>();
+            CLI::App* traj = app.add_subcommand("trajectory", "estimated vs truth trajectory: ATE, RDE, RPE, KITTI errors");
+            traj->add_option("estimate", t->est, "estimated trajectory (TUM, KITTI or EuRoC)")->required();
+            traj->add_option("truth", t->gt, "truth trajectory")->required();
+            traj->add_option("--align", t->align, "fit before ATE")->check(CLI::IsMember({"se3", "sim3", "none"}));
+            traj->add_flag("--by-index", t->by_index, "pair pose i with pose i instead of by timestamp");
+            traj->add_option("--max-time-diff", t->max_time_diff_s, "timestamp association tolerance, s")
+                ->check(CLI::NonNegativeNumber);
+            traj->add_option("--time-offset", t->time_offset_s, "added to the estimate's times before association, s");
+            traj->add_option("--rde-delta", t->rde_delta, "RDE pair spacing: N frames, Ns seconds or Nm metres");
+            traj->add_option("--rpe-delta", t->rpe_delta, "RPE pair spacing: N frames, Ns seconds or Nm metres");
+            const std::vector<std::string> formats = {"auto", "tum", "kitti", "euroc"};
+            traj->add_option("--format", t->format, "estimate format (auto: from the first data line)")
+                ->check(CLI::IsMember(formats));
+            traj->add_option("--gt-format", t->gt_format, "truth format")->check(CLI::IsMember(formats));
+            traj->add_option("--kitti-times", t->kitti_times, "times.txt for KITTI-format inputs (seconds per line)");
+            traj->add_option("--json", t->json, "write the report as JSON ('-' = stdout)");
+
+            return [=] {
+              if (disp->parsed()) return RunEvalDisparity(*d);
+              if (dmg->parsed()) return RunEvalDamage(*g);
+              return RunEvalTrajectory(*t);
+            };
+          }};
+}
+
+}  // namespace rs

@@ -1,0 +1,122 @@
+#include "stages/damage/damage_stage.h"
+
+#include <fmt/format.h>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "formats/stereo/calibration_yaml.h"
+#include "formats/stereo/image_io.h"
+#include "stages/damage/damage_output.h"
+#include "survey/atomic_file.h"
+
+namespace rs {
+namespace fs = std::filesystem;
+namespace {
+
+const OptionTable<DamageOptions>& DamageOptionsTable() {
+  static const auto t = OptionTable<DamageOptions>()
+                            .Include("road", &DamageOptions::road, RoadModelOptions::Table())
+                            .Include("segment", &DamageOptions::segment, SegmentOptions::Table())
+                            .Include("crack", &DamageOptions::crack, CrackOptions::Table())
+                            .Include("measure", &DamageOptions::measure, MeasureOptions::Table())
+                            .Include("severity", &DamageOptions::severity, SeverityOptions::Table());
+  return t;
+}
+
+// KITTI 16-bit disparity (value = d * 256, 0 = invalid) as float px, <= 0 invalid.
+cv::Mat ReadKittiDisparity(const fs::path& path) {
+  const cv::Mat png = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
+  if (png.empty() || png.type() != CV_16UC1)
+    throw InputError(InputLocation::File(path.string()), "expected a 16-bit KITTI disparity PNG");
+  cv::Mat d;
+  png.convertTo(d, CV_32F, 1.0 / 256.0);
+  return d;
+}
+
+}  // namespace
+
+void DamageStageOptions::Check() const {
+  try {
+    damage.Check();
+  } catch (const std::invalid_argument& e) {
+    throw OptionError(e.what());
+  }
+}
+
+const OptionTable<DamageStageOptions>& DamageStageOptions::Table() {
+  static const auto t =
+      OptionTable<DamageStageOptions>()
+          .Include("", &DamageStageOptions::damage, DamageOptionsTable())
+          .Add("write_overlay", &DamageStageOptions::write_overlay,
+               "write an overlay PNG per frame (damage outlined and labelled on the left image)")
+          .Add("write_relief", &DamageStageOptions::write_relief,
+               "write the transformed disparity and the depth below the road (float TIFFs) per frame")
+          .Add("skip_bad_frames", &DamageStageOptions::skip_bad_frames,
+               "skip and count frames whose inputs cannot be read instead of failing");
+  return t;
+}
+
+StageInfo DamageStage::Info() {
+  StageInfo info;
+  info.name = "damage";
+  info.version = 1;
+  info.doc = "Per frame: robust 3-D road surface (obstacles removed), depth below the road, unsupervised damage "
+             "segmentation, per-damage area, depth, volume, size, crack width/length, ASTM/FHWA severity.";
+  info.inputs = {"frames", "calibration", "disparity"};
+  info.outputs = {"damage"};
+  info.published = {{"frames", "damage"}};
+  info.per_frame = true;
+  return info;
+}
+
+void DamageStage::Run(StageContext& ctx, const DamageStageOptions& o) const {
+  const auto frames = ReadFrameIndex(ctx.input_dir("frames") / "frames.csv");
+  const StereoCalibration calib = ReadCalibrationYaml(ctx.input_dir("calibration") / "calibration.yaml");
+  const StereoGeometry geometry{calib.left.fx, calib.left.cx, calib.left.cy, calib.BaselineM()};
+  const fs::path disparity_dir = ctx.input_dir("disparity");
+
+  ctx.ForEachFrame(
+      frames,
+      [&](const FrameRecord& f, const fs::path& tmp) {
+        const fs::path in_dir = StageContext::FrameDirIn(disparity_dir, f.id);
+        if (fs::exists(in_dir / "skipped.json"))
+          throw InputError(InputLocation::File((in_dir / "skipped.json").string()), "no disparity (frame skipped)");
+        const cv::Mat disparity = ReadKittiDisparity(in_dir / "disparity.png");
+        const cv::Mat left = LoadGray8(f.left);
+        FrameDamage result;
+        try {
+          result = DetectDamage(disparity, left, geometry, o.damage);
+        } catch (const std::invalid_argument& e) {
+          // The algorithm rejects this frame's data (e.g. too few road points): a
+          // counted skip with the reason, not a failed survey.
+          throw InputError(InputLocation::File((in_dir / "disparity.png").string()), e.what());
+        }
+        WriteLabelPng((tmp / "labels.png").string(), result.labels);
+        nlohmann::json detections = {{"frame", f.id.value},
+                                     {"t_ns", f.t_ns},
+                                     {"threshold_sigma", result.threshold_sigma},
+                                     {"road", {{"camera_height_m", result.surface.camera_height_m},
+                                               {"residual_sigma_m", result.surface.residual_sigma_m},
+                                               {"inliers", result.surface.inliers},
+                                               {"obstacle_points", result.surface.obstacle_points}}},
+                                     {"damages", DetectionsToJson(result.instances)}};
+        WriteJsonAtomic(tmp / "detections.json", detections);
+        if (o.write_overlay)
+          cv::imwrite((tmp / "overlay.png").string(), RenderOverlay(left, result.labels, result.instances));
+        if (o.write_relief) {
+          cv::imwrite((tmp / "transformed.tiff").string(), result.relief.transformed_disparity_px);
+          cv::imwrite((tmp / "depth_below_road_mm.tiff").string(), result.relief.depth_below_mm);
+        }
+        FrameOutcome out;
+        int potholes = 0, cracks = 0;
+        for (const auto& d : result.instances) {
+          potholes += d.type == DamageType::kPothole;
+          cracks += d.type == DamageType::kCrack;
+        }
+        out.counts = {{"damages", result.instances.size()}, {"potholes", potholes}, {"cracks", cracks}};
+        return out;
+      },
+      o.skip_bad_frames);
+}
+
+}  // namespace rs

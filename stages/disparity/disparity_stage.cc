@@ -1,0 +1,238 @@
+#include "stages/disparity/disparity_stage.h"
+
+#include <fmt/format.h>
+
+#include <fstream>
+#include <opencv2/imgcodecs.hpp>
+
+#include "formats/stereo/calibration_yaml.h"
+#include "formats/stereo/image_io.h"
+#include "stages/disparity/disparity_io.h"
+#include "survey/atomic_file.h"
+
+namespace rs {
+namespace fs = std::filesystem;
+namespace {
+
+const OptionTable<RoadFitOptions>& RoadFitTable() {
+  static const auto t =
+      OptionTable<RoadFitOptions>()
+          .Add("max_features", &RoadFitOptions::max_features, "strongest FAST corners kept per image").Min(10)
+          .Add("fast_threshold", &RoadFitOptions::fast_threshold, "FAST corner threshold", "grey levels").Min(1)
+          .Add("detect_scale", &RoadFitOptions::detect_scale, "detect and match on images resized by this").Above(0).Max(1)
+          .Add("max_row_diff_px", &RoadFitOptions::max_row_diff_px, "epipolar constraint |v_left - v_right|", "px").Min(0)
+          .Add("min_disparity_px", &RoadFitOptions::min_disparity_px, "matches need a larger disparity", "px")
+          .Add("max_disparity_px", &RoadFitOptions::max_disparity_px, "matches need at most this disparity", "px")
+          .Add("ratio", &RoadFitOptions::ratio, "Lowe ratio test on Hamming distances").Above(0).Max(1)
+          .Add("max_hamming", &RoadFitOptions::max_hamming, "descriptor distance ceiling (of 256 bits)").Min(0).Max(256)
+          .Add("ransac_iterations", &RoadFitOptions::ransac_iterations, "planar hypotheses drawn").Min(1)
+          .Add("inlier_threshold_px", &RoadFitOptions::inlier_threshold_px, "|d - model| for an inlier", "px").Above(0)
+          .Add("min_inliers", &RoadFitOptions::min_inliers, "fewer inliers: model unreliable, plain SGM fallback").Min(3)
+          .Add("min_inlier_fraction", &RoadFitOptions::min_inlier_fraction,
+               "smaller inlier share of the matches: model unreliable").Min(0).Max(1)
+          .Add("max_residual_rms_px", &RoadFitOptions::max_residual_rms_px, "larger inlier RMS: model unreliable", "px")
+          .Above(0)
+          .Add("quadratic", &RoadFitOptions::quadratic, "refine with a quadratic surface (cambered roads)")
+          .Add("seed", &RoadFitOptions::seed, "RANSAC random seed (deterministic runs)");
+  return t;
+}
+
+const OptionTable<DisparityParams>& ParamsTable() {
+  static const auto t =
+      OptionTable<DisparityParams>()
+          .AddEnum("method", &DisparityParams::method,
+                   {{"gpt-sgm", DisparityMethod::kGptSgm}, {"sgm", DisparityMethod::kSgm}},
+                   "matcher: gpt-sgm (road model + perspective transformation + SGM) or plain sgm")
+          .Add("min_disparity", &DisparityParams::min_disparity, "plain SGM (and fallback): smallest disparity", "px")
+          .Add("num_disparities", &DisparityParams::num_disparities, "plain SGM (and fallback): disparities searched",
+               "px")
+          .Min(1)
+          .Max(1024)
+          .Add("census_width", &DisparityParams::census_width, "census window width (odd)", "px").Min(1)
+          .Add("census_height", &DisparityParams::census_height, "census window height (odd)", "px").Min(1)
+          .Add("ad_weight", &DisparityParams::ad_weight, "weight of the truncated absolute-difference cost (0 = off)")
+          .Min(0)
+          .Add("ad_truncation", &DisparityParams::ad_truncation, "truncation of |IL - IR|", "grey levels").Min(1)
+          .Add("num_paths", &DisparityParams::num_paths, "SGM aggregation paths (4 or 8)")
+          .Add("p1", &DisparityParams::p1, "SGM penalty for +-1 px disparity changes").Min(0)
+          .Add("p2", &DisparityParams::p2, "SGM penalty for larger changes (p1 < p2)").Min(0)
+          .Add("adaptive_p2", &DisparityParams::adaptive_p2, "lower P2 at intensity edges")
+          .Add("p2_gradient_scale", &DisparityParams::p2_gradient_scale, "g in the adaptive P2", "grey levels").Min(1)
+          .Add("uniqueness_ratio", &DisparityParams::uniqueness_ratio, "margin the best cost needs over others", "%")
+          .Min(0)
+          .Max(100)
+          .AddEnum("subpixel", &DisparityParams::subpixel,
+                   {{"equiangular", SubpixelMode::kEquiangular},
+                    {"parabola", SubpixelMode::kParabola},
+                    {"none", SubpixelMode::kNone}},
+                   "sub-pixel refinement")
+          .Add("lr_max_diff", &DisparityParams::lr_max_diff, "left-right consistency tolerance (< 0 disables)", "px")
+          .Add("speckle_window_size", &DisparityParams::speckle_window_size,
+               "drop connected regions smaller than this (0 = off)", "px")
+          .Min(0)
+          .Add("speckle_max_diff_px", &DisparityParams::speckle_max_diff_px, "disparity step inside a speckle region",
+               "px")
+          .Min(0)
+          .Add("median", &DisparityParams::median, "3x3 median over valid neighbours")
+          .Add("gpt_num_disparities", &DisparityParams::gpt_num_disparities,
+               "GPT-SGM residual search range (road residual + damage depth)", "px")
+          .Min(1)
+          .Max(1024)
+          .Add("gpt_delta_px", &DisparityParams::gpt_delta_px,
+               "delta: residual disparity of the road's row minimum (damage down to -delta fits)", "px")
+          .Min(0)
+          .Add("gpt_headroom_px", &DisparityParams::gpt_headroom_px, "range kept above the road's largest residual",
+               "px")
+          .Min(0)
+          .Add("gpt_expand_range", &DisparityParams::gpt_expand_range, "widen the GPT range when roll needs it")
+          .Add("gpt_subpixel_warp", &DisparityParams::gpt_subpixel_warp,
+               "warp the target by the exact sub-pixel shift (else whole-pixel row shifts)")
+          .Add("gpt_min_valid_fraction", &DisparityParams::gpt_min_valid_fraction,
+               "fall back to plain SGM when a smaller share of road pixels gets a valid GPT-SGM disparity")
+          .Min(0)
+          .Max(1)
+          .Include("road", &DisparityParams::road, RoadFitTable());
+  return t;
+}
+
+cv::Mat LoadPair(const FrameRecord& f, cv::Mat* right) {
+  cv::Mat left = LoadGray8(f.left);
+  *right = LoadGray8(f.right);
+  if (left.size() != right->size())
+    throw InputError(InputLocation::File(f.right.string()),
+                     fmt::format("right image is {}x{}, left is {}x{}", right->cols, right->rows, left.cols, left.rows));
+  return left;
+}
+
+nlohmann::json RoadModelJson(const RoadModel& m, const DisparityResult& r, double delta_px) {
+  return {{"a0", m.a0},
+          {"a1", m.a1},
+          {"roll_rad", m.roll_rad},
+          {"c", m.c},
+          {"quadratic", m.quadratic},
+          {"delta_px", delta_px},
+          {"matches", m.num_matches},
+          {"inliers", m.num_inliers},
+          {"residual_rms_px", m.residual_rms_px},
+          {"reliable", m.reliable},
+          {"from_prior", m.from_prior},
+          {"method_used", r.method_used == DisparityMethod::kGptSgm ? "gpt-sgm" : "sgm"},
+          {"fell_back", r.fell_back},
+          {"num_disparities", r.num_disparities},
+          {"valid_fraction", r.valid_fraction},
+          {"total_ms", r.timings.total_ms}};
+}
+
+}  // namespace
+
+void DisparityStageOptions::Check() const {
+  try {
+    params.Check();
+  } catch (const std::invalid_argument& e) {
+    throw OptionError(e.what());
+  }
+}
+
+const OptionTable<DisparityStageOptions>& DisparityStageOptions::Table() {
+  static const auto t =
+      OptionTable<DisparityStageOptions>()
+          .Include("", &DisparityStageOptions::params, ParamsTable())
+          .Add("temporal_prior", &DisparityStageOptions::temporal_prior,
+               "seed each frame's road fit with the previous frame's model (helps high, weakly textured flights)")
+          .Add("write_transformed", &DisparityStageOptions::write_transformed,
+               "write the transformed disparity (float TIFF), which the damage stage reads")
+          .Add("write_preview", &DisparityStageOptions::write_preview, "write a colour preview PNG per frame")
+          .Add("write_point_cloud", &DisparityStageOptions::write_point_cloud,
+               "write a metric point cloud PLY per frame (left camera frame)")
+          .Add("skip_bad_frames", &DisparityStageOptions::skip_bad_frames,
+               "skip and count frames whose images cannot be read instead of failing");
+  return t;
+}
+
+StageInfo DisparityStage::Info() {
+  StageInfo info;
+  info.name = "disparity";
+  info.version = 1;
+  info.doc = "Dense road disparity per frame: GPT-SGM (road model, perspective transformation, semi-global "
+             "matching over a small residual range), plain SGM where the road model is unreliable.";
+  info.inputs = {"frames", "calibration"};
+  info.outputs = {"disparity"};
+  info.published = {{"frames", "disparity"}};
+  info.per_frame = true;
+  return info;
+}
+
+void DisparityStage::Run(StageContext& ctx, const DisparityStageOptions& o) const {
+  const fs::path ingest = ctx.input_dir("frames");
+  const auto frames = ReadFrameIndex(ingest / "frames.csv");
+  const StereoCalibration calib = ReadCalibrationYaml(ctx.input_dir("calibration") / "calibration.yaml");
+  std::map<int64_t, const FrameRecord*> previous;
+  for (size_t i = 1; i < frames.size(); ++i) previous[frames[i].id.value] = &frames[i - 1];
+
+  ctx.ForEachFrame(
+      frames,
+      [&](const FrameRecord& f, const fs::path& tmp) {
+        cv::Mat right;
+        const cv::Mat left = LoadPair(f, &right);
+        // The prior is fitted from the previous frame's own pair, so every frame's
+        // result is independent of processing order (parallel, resumable, cacheable).
+        std::optional<RoadModel> prior;
+        if (o.temporal_prior && o.params.method == DisparityMethod::kGptSgm && previous.count(f.id.value)) {
+          cv::Mat prev_right;
+          const cv::Mat prev_left = LoadPair(*previous[f.id.value], &prev_right);
+          const auto samples = MatchSparseDisparities(prev_left, prev_right, o.params.road);
+          const RoadModel m = FitRoadModel(samples, prev_left.cols, prev_left.rows, o.params.road);
+          if (m.reliable) prior = m;
+        }
+        const DisparityResult r = ComputeDisparity(left, right, o.params, prior ? &*prior : nullptr);
+        WriteKittiDisparityPng((tmp / "disparity.png").string(), r.disparity, r.valid);
+        cv::imwrite((tmp / "valid.png").string(), r.valid);
+        if (o.write_transformed && !r.transformed.empty())
+          cv::imwrite((tmp / "transformed.tiff").string(), r.transformed);
+        if (o.write_preview) {
+          double d_max = 0;
+          cv::minMaxLoc(r.disparity, nullptr, &d_max, nullptr, nullptr, r.valid);
+          cv::imwrite((tmp / "preview.png").string(), ColorizeDisparity(r.disparity, r.valid, 0, d_max));
+        }
+        if (o.write_point_cloud)
+          WriteDisparityPointCloud((tmp / "cloud.ply").string(), r.disparity, r.valid, left, calib.left.fx,
+                                   calib.left.cx, calib.left.cy, calib.BaselineM());
+        WriteJsonAtomic(tmp / "road_model.json", RoadModelJson(r.road, r, o.params.gpt_delta_px));
+        FrameOutcome out;
+        out.counts = {{"fell_back", r.fell_back ? 1 : 0},
+                      {"valid_fraction_sum", r.valid_fraction},
+                      {"road_inliers_sum", r.road.num_inliers},
+                      {"compute_ms_sum", r.timings.total_ms}};
+        if (r.fell_back)
+          out.warnings.push_back(fmt::format("road model unreliable ({} inliers): plain SGM over {} disparities",
+                                             r.road.num_inliers, r.num_disparities));
+        return out;
+      },
+      o.skip_bad_frames);
+}
+
+void WriteDisparityPointCloud(const std::string& path, const cv::Mat& disparity, const cv::Mat& valid,
+                              const cv::Mat& gray, double f_px, double cx_px, double cy_px, double baseline_m) {
+  struct Point {
+    float x, y, z;
+    uint8_t g;
+  } __attribute__((packed));
+  std::vector<Point> points;
+  for (int v = 0; v < disparity.rows; ++v) {
+    for (int u = 0; u < disparity.cols; ++u) {
+      const float d = disparity.at<float>(v, u);
+      if (!valid.at<uint8_t>(v, u) || d <= 0) continue;
+      const double z = f_px * baseline_m / d;
+      points.push_back({static_cast<float>((u - cx_px) * z / f_px), static_cast<float>((v - cy_px) * z / f_px),
+                        static_cast<float>(z), gray.at<uint8_t>(v, u)});
+    }
+  }
+  std::ofstream out(path, std::ios::binary);
+  out << "ply\nformat binary_little_endian 1.0\ncomment roadsurvey disparity point cloud, left camera frame, metres\n"
+      << "element vertex " << points.size() << "\nproperty float x\nproperty float y\nproperty float z\n"
+      << "property uchar intensity\nend_header\n";
+  out.write(reinterpret_cast<const char*>(points.data()), static_cast<std::streamsize>(points.size() * sizeof(Point)));
+  if (!out) throw std::runtime_error("cannot write point cloud " + path);
+}
+
+}  // namespace rs

@@ -1,0 +1,35 @@
+#pragma once
+// Stage "disparity": dense disparity of every rectified pair by GPT-SGM (road
+// model + perspective transformation + our SGM), with plain SGM as fallback.
+// Docs: docs/stages/disparity.md.
+
+#include "stages/disparity/disparity.h"
+#include "survey/stage.h"
+
+namespace rs {
+
+/// The algorithm's parameters (DisparityParams, registered field by field) plus what to write.
+struct DisparityStageOptions {
+  DisparityParams params;
+  bool temporal_prior = true;      ///< seed each frame's road fit with the previous frame's model
+  bool write_transformed = true;   ///< transformed disparity (float TIFF), the damage stage's input
+  bool write_preview = false;      ///< colour preview PNG per frame
+  bool write_point_cloud = false;  ///< metric point cloud PLY per frame (left camera frame)
+  bool skip_bad_frames = true;     ///< skip and count frames whose images cannot be read
+
+  void Check() const;
+  static const OptionTable<DisparityStageOptions>& Table();
+};
+
+class DisparityStage : public TypedStage<DisparityStage, DisparityStageOptions> {
+ public:
+  static StageInfo Info();
+  void Run(StageContext& ctx, const DisparityStageOptions& options) const;
+};
+
+/// Binary little-endian PLY of the valid pixels' 3-D points in the left camera
+/// frame (x right, y down, z forward, metres) with their grey value.
+void WriteDisparityPointCloud(const std::string& path, const cv::Mat& disparity, const cv::Mat& valid,
+                              const cv::Mat& gray, double f_px, double cx_px, double cy_px, double baseline_m);
+
+}  // namespace rs

@@ -1,0 +1,63 @@
+#pragma once
+// Ceres bundle adjustment of the SLAM map (local window or everything) and SE(3) pose-graph
+// optimisation for loop closing. Poses are parametrised as (angle-axis, translation) of
+// T_cam_world; residuals are whitened by the pyramid-level sigma.
+
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "stages/slam/slam_map.h"
+
+namespace rs {
+
+/// Stereo (u, v, u_right) or mono (u, v) reprojection residual, for ceres::AutoDiffCostFunction.
+/// pose = (angle-axis[3], t[3]) of T_cam_world, point = p_world[3].
+struct ReprojectionResidual {
+  double u, v, u_right;  ///< measurement, px (u_right < 0: mono, third residual is zero)
+  double fx, fy, cx, cy, baseline_m;
+  double sqrt_info;      ///< 1 / sigma of the feature's pyramid level
+
+  template <typename T>
+  bool operator()(const T* pose, const T* point, T* residual) const;
+};
+
+/// Relative-pose residual of a pose-graph edge (6 residuals: rotation angle-axis, translation),
+/// poses = (angle-axis[3], t[3]) of T_world_kf.
+struct RelativePoseResidual {
+  Eigen::Quaterniond q_a_b;  ///< measured rotation of b in a
+  Eigen::Vector3d t_a_b;     ///< measured position of b in a, m
+  double weight_rotation = 1, weight_translation = 1;
+
+  template <typename T>
+  bool operator()(const T* pose_a, const T* pose_b, T* residual) const;
+};
+
+/// What a bundle adjustment did.
+struct BundleAdjustSummary {
+  int keyframes = 0, fixed_keyframes = 0, points = 0, observations = 0;
+  int outliers_removed = 0;
+  double initial_cost = 0, final_cost = 0;
+};
+
+/// Optimises the poses of `free_kfs` and the points they observe; every other keyframe observing
+/// those points is held fixed. With remove_outliers, observations above the chi-square threshold are
+/// erased afterwards (and the problem re-solved once without them).
+BundleAdjustSummary BundleAdjust(SlamMap* map, const std::vector<int>& free_kfs, const StereoCamera& camera,
+                                 const ScalePyramid& pyramid, int iterations, bool remove_outliers,
+                                 const std::vector<int>& fixed_kfs_extra = {});
+
+/// One pose-graph edge: measured T_a_b between keyframes a and b.
+struct PoseGraphEdge {
+  int a = 0, b = 0;
+  Eigen::Isometry3d T_a_b = Eigen::Isometry3d::Identity();
+  double weight = 1;
+};
+
+/// Optimises T_world_kf of every node except `fixed` (held) given relative-pose edges.
+void OptimizePoseGraph(std::vector<Eigen::Isometry3d>* T_world_kf, const std::vector<PoseGraphEdge>& edges,
+                       const std::vector<int>& fixed, int iterations);
+
+}  // namespace rs
+
+#include "stages/slam/bundle_adjust_impl.h"

@@ -1,0 +1,81 @@
+#include "stages/slam/bundle_adjust.h"
+
+#include <random>
+
+#include <ceres/ceres.h>
+#include <gtest/gtest.h>
+
+namespace rs {
+namespace {
+
+// Autodiff Jacobians of the residuals against central differences (Ceres' NumericDiffCostFunction).
+TEST(ReprojectionResidual, JacobiansMatchNumeric) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> small(-0.3, 0.3);
+  for (int stereo = 0; stereo < 2; ++stereo) {
+    ReprojectionResidual r{640.3, 200.7, stereo ? 610.2 : -1.0, 700, 705, 600, 180, 0.5, 1 / 1.2};
+    double pose[6] = {small(rng), small(rng), small(rng), small(rng), small(rng), small(rng)};
+    double point[3] = {1.5, -0.7, 9.0};
+    double* params[2] = {pose, point};
+    ceres::AutoDiffCostFunction<ReprojectionResidual, 3, 6, 3> ad(new ReprojectionResidual(r));
+    ceres::NumericDiffCostFunction<ReprojectionResidual, ceres::CENTRAL, 3, 6, 3> nd(new ReprojectionResidual(r));
+    double ra[3], rn[3], ja0[18], ja1[9], jn0[18], jn1[9];
+    double* ja[2] = {ja0, ja1};
+    double* jn[2] = {jn0, jn1};
+    ASSERT_TRUE(ad.Evaluate(params, ra, ja));
+    ASSERT_TRUE(nd.Evaluate(params, rn, jn));
+    for (int i = 0; i < 3; ++i) EXPECT_NEAR(ra[i], rn[i], 1e-12);
+    for (int i = 0; i < 18; ++i) EXPECT_NEAR(ja0[i], jn0[i], 1e-5 * (1 + std::abs(jn0[i]))) << i;
+    for (int i = 0; i < 9; ++i) EXPECT_NEAR(ja1[i], jn1[i], 1e-5 * (1 + std::abs(jn1[i]))) << i;
+  }
+}
+
+TEST(RelativePoseResidual, JacobiansMatchNumeric) {
+  RelativePoseResidual r;
+  r.q_a_b = Eigen::Quaterniond(Eigen::AngleAxisd(0.2, Eigen::Vector3d(0.3, 1, 0.2).normalized()));
+  r.t_a_b = Eigen::Vector3d(1, -2, 0.5);
+  double a[6] = {0.1, -0.2, 0.05, 1, 2, 3}, b[6] = {0.2, 0.1, -0.1, 2, 0.5, 3.5};
+  double* params[2] = {a, b};
+  ceres::AutoDiffCostFunction<RelativePoseResidual, 6, 6, 6> ad(new RelativePoseResidual(r));
+  ceres::NumericDiffCostFunction<RelativePoseResidual, ceres::CENTRAL, 6, 6, 6> nd(new RelativePoseResidual(r));
+  double ra[6], rn[6], ja0[36], ja1[36], jn0[36], jn1[36];
+  double* ja[2] = {ja0, ja1};
+  double* jn[2] = {jn0, jn1};
+  ASSERT_TRUE(ad.Evaluate(params, ra, ja));
+  ASSERT_TRUE(nd.Evaluate(params, rn, jn));
+  for (int i = 0; i < 36; ++i) {
+    EXPECT_NEAR(ja0[i], jn0[i], 1e-6 * (1 + std::abs(jn0[i]))) << i;
+    EXPECT_NEAR(ja1[i], jn1[i], 1e-6 * (1 + std::abs(jn1[i]))) << i;
+  }
+}
+
+// A pose graph whose sequential edges drifted is pulled back by one loop edge.
+TEST(PoseGraph, Nominal) {
+  const int n = 20;
+  std::vector<Eigen::Isometry3d> truth(n), est(n);
+  for (int i = 0; i < n; ++i) {
+    const double a = 2 * M_PI * i / n;
+    truth[i] = Eigen::Isometry3d::Identity();
+    truth[i].linear() = Eigen::AngleAxisd(a, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    truth[i].translation() = Eigen::Vector3d(10 * std::cos(a), 10 * std::sin(a), 0);
+  }
+  std::vector<PoseGraphEdge> edges;
+  Eigen::Isometry3d drift = Eigen::Isometry3d::Identity();
+  drift.linear() = Eigen::AngleAxisd(0.02, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  drift.translation() = Eigen::Vector3d(0.05, 0.02, 0);
+  est[0] = truth[0];
+  for (int i = 1; i < n; ++i) {
+    const Eigen::Isometry3d rel = truth[i - 1].inverse() * truth[i] * drift;  // biased odometry
+    est[i] = est[i - 1] * rel;
+    edges.push_back({i - 1, i, rel, 1.0});
+  }
+  edges.push_back({n - 1, 0, truth[n - 1].inverse() * truth[0], 1.0});
+  const double before = (est[n - 1].translation() - truth[n - 1].translation()).norm();
+  OptimizePoseGraph(&est, edges, {0}, 50);
+  const double after = (est[n - 1].translation() - truth[n - 1].translation()).norm();
+  EXPECT_GT(before, 0.5);
+  EXPECT_LT(after, 0.1 * before);
+}
+
+}  // namespace
+}  // namespace rs

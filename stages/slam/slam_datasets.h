@@ -1,0 +1,40 @@
+#pragma once
+// Runs StereoSlam over the public test sequences with metric truth (KITTI odometry clip, EuRoC
+// micro, a simulator folder) and scores it. Shared by slam_test and slam_bench.
+
+#include <filesystem>
+#include <string>
+
+#include "stages/slam/stereo_slam.h"
+#include "stages/slam/trajectory_metrics.h"
+
+namespace rs {
+
+/// Outcome of one run against truth.
+struct SlamRunReport {
+  SlamResult result;
+  std::vector<FrameResult> frames;  ///< what Track returned per frame
+  AteResult ate;              ///< SE(3)-aligned ATE of the frame trajectory (camera frames)
+  double path_length_m = 0;   ///< length of the true camera path
+  double wall_s = 0;          ///< Track + Finish wall time (image loading and rectification excluded)
+  double cpu_s = 0;           ///< process CPU time over the same span (all threads)
+  double load_s = 0;          ///< image loading (+ rectification) wall time
+  /// Median / 90th percentile of the final map's level-0 reprojection residuals (|(du, dv)| and
+  /// |du_right|, px) with the final keyframe poses: how consistent keypoints, depths and poses are.
+  double reproj_median_px = 0, reproj_p90_px = 0, reproj_right_median_px = 0;
+  int width = 0, height = 0;
+  std::string Summary(const std::string& name) const;
+};
+
+/// KITTI odometry layout with poses.txt (compared pose i to frame i). max_frames < 0: all.
+SlamRunReport RunKittiOdometry(const std::filesystem::path& folder, const SlamOptions& options, int max_frames = -1);
+/// EuRoC/ASL mav0 folder: raw pairs rectified via rs_stereo_io; truth = a TUM body trajectory,
+/// compared through cam0's T_BS and the rectifying rotation.
+SlamRunReport RunEuroc(const std::filesystem::path& dataset, const std::filesystem::path& gt_tum,
+                       const SlamOptions& options);
+/// Plain layout written by the simulator with truth/trajectory.tum (camera poses). use_priors: feed
+/// the true positions (+ noise sigma_m, fixed seed) as priors.
+SlamRunReport RunSimulated(const std::filesystem::path& folder, const SlamOptions& options, bool use_priors,
+                           double prior_noise_m = 1.0);
+
+}  // namespace rs

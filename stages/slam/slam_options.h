@@ -1,0 +1,45 @@
+#pragma once
+// Options of the stereo visual SLAM core (rs_slam_core). Plain struct, in-class defaults,
+// one comment per field, Check() stating the violated rule. Documented in docs/stages/slam.md.
+
+namespace rs {
+
+/// Every tunable of StereoSlam. Defaults suit 10-20 Hz rectified stereo of 0.1-0.6 m baseline.
+struct SlamOptions {
+  // --- front end
+  int features = 1200;              ///< ORB features kept per image after grid spreading
+  int pyramid_levels = 8;           ///< scale pyramid levels
+  double scale_factor = 1.2;        ///< scale ratio between pyramid levels
+  int fast_threshold = 12;          ///< FAST threshold, grey levels (low: grid spreading ranks by Harris score)
+  int grid_cell_px = 40;            ///< cell size of the grid that spreads features over the image, px
+  double close_depth_baselines = 40;  ///< a stereo point is "close" (reliable depth) below this many baselines
+  int stereo_max_hamming = 75;      ///< largest descriptor distance of a left-right stereo match
+  // --- tracking
+  int match_max_hamming = 100;      ///< largest descriptor distance of a frame-to-map match
+  double match_ratio = 0.8;         ///< best / second-best distance ratio for local-map matches
+  double search_radius_px = 7;      ///< search radius when projecting the previous frame's points (x pyramid scale)
+  int min_tracked_inliers = 20;     ///< fewer inliers after local-map tracking = tracking lost
+  // --- keyframes and local mapping
+  int keyframe_max_gap = 10;        ///< insert a keyframe at least every this many frames
+  double keyframe_tracked_ratio = 0.75;  ///< keyframe when inliers < ratio * points tracked by the reference keyframe
+  int local_ba_keyframes = 8;       ///< keyframes optimised by each local bundle adjustment
+  int local_ba_iterations = 8;      ///< Ceres iterations of each local BA pass
+  int local_map_keyframes = 20;     ///< keyframes whose points form the local map tracked against
+  // --- loop closure (run in StereoSlam::Finish)
+  bool loop_closure = true;         ///< detect and close loops, then run a global bundle adjustment
+  int vocabulary_branching = 16;    ///< branching factor of the bag-of-words vocabulary tree
+  int vocabulary_depth = 3;         ///< depth of the vocabulary tree (words = branching^depth at most)
+  int loop_min_gap_keyframes = 20;  ///< a loop candidate must be at least this many keyframes older
+  int loop_min_inliers = 60;        ///< stereo SE(3) RANSAC inliers needed to accept a loop
+  double loop_prior_radius_m = 15;  ///< keyframes whose priors lie within this distance are loop candidates
+  double loop_prior_gate_m = 10;    ///< reject a loop whose relative translation disagrees with the priors by more
+  int global_ba_iterations = 20;    ///< Ceres iterations of the global bundle adjustment
+  // --- determinism / threads
+  unsigned ransac_seed = 1;         ///< seed of every RANSAC: same input and seed give the same result
+  bool parallel = true;             ///< extract left and right features concurrently (result unchanged)
+
+  /// Throws rs::OptionError naming the violated rule ("slam.features = 10 violates features >= 100").
+  void Check() const;
+};
+
+}  // namespace rs

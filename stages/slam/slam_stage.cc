@@ -1,0 +1,205 @@
+#include "stages/slam/slam_stage.h"
+
+#include <GeographicLib/LocalCartesian.hpp>
+#include <fmt/format.h>
+
+#include <chrono>
+#include <fstream>
+
+#include "formats/frame_priors.h"
+#include "formats/stereo/calibration_yaml.h"
+#include "formats/stereo/image_io.h"
+#include "formats/trajectory/tum_trajectory.h"
+#include "stages/slam/stereo_slam.h"
+#include "survey/atomic_file.h"
+
+namespace rs {
+namespace fs = std::filesystem;
+namespace {
+
+const OptionTable<SlamOptions>& SlamTable() {
+  static const auto t =
+      OptionTable<SlamOptions>()
+          .Add("features", &SlamOptions::features, "ORB features kept per image after grid spreading").Min(100)
+          .Add("pyramid_levels", &SlamOptions::pyramid_levels, "scale pyramid levels").Min(1)
+          .Add("scale_factor", &SlamOptions::scale_factor, "scale ratio between pyramid levels").Above(1)
+          .Add("fast_threshold", &SlamOptions::fast_threshold, "FAST threshold", "grey levels").Min(1)
+          .Add("grid_cell_px", &SlamOptions::grid_cell_px, "cell size of the feature-spreading grid", "px").Min(4)
+          .Add("close_depth_baselines", &SlamOptions::close_depth_baselines,
+               "a stereo point is close (reliable depth) below this many baselines")
+          .Above(0)
+          .Add("stereo_max_hamming", &SlamOptions::stereo_max_hamming, "largest left-right descriptor distance")
+          .Min(0)
+          .Max(256)
+          .Add("match_max_hamming", &SlamOptions::match_max_hamming, "largest frame-to-map descriptor distance")
+          .Min(0)
+          .Max(256)
+          .Add("match_ratio", &SlamOptions::match_ratio, "best / second-best distance ratio").Above(0).Max(1)
+          .Add("search_radius_px", &SlamOptions::search_radius_px,
+               "search radius when projecting the previous frame's points (x pyramid scale)", "px")
+          .Above(0)
+          .Add("min_tracked_inliers", &SlamOptions::min_tracked_inliers, "fewer inliers = tracking lost").Min(3)
+          .Add("keyframe_max_gap", &SlamOptions::keyframe_max_gap, "a keyframe at least every this many frames")
+          .Min(1)
+          .Add("keyframe_tracked_ratio", &SlamOptions::keyframe_tracked_ratio,
+               "keyframe when inliers < ratio x points tracked by the reference keyframe")
+          .Above(0)
+          .Max(1)
+          .Add("local_ba_keyframes", &SlamOptions::local_ba_keyframes, "keyframes in each local bundle adjustment")
+          .Min(1)
+          .Add("local_ba_iterations", &SlamOptions::local_ba_iterations, "solver iterations of each local BA").Min(1)
+          .Add("local_map_keyframes", &SlamOptions::local_map_keyframes, "keyframes whose points form the local map")
+          .Min(1)
+          .Add("loop_closure", &SlamOptions::loop_closure, "detect and close loops, then a global bundle adjustment")
+          .Add("vocabulary_branching", &SlamOptions::vocabulary_branching, "bag-of-words vocabulary tree branching")
+          .Min(2)
+          .Add("vocabulary_depth", &SlamOptions::vocabulary_depth, "bag-of-words vocabulary tree depth").Min(1)
+          .Add("loop_min_gap_keyframes", &SlamOptions::loop_min_gap_keyframes,
+               "a loop candidate must be at least this many keyframes older")
+          .Min(1)
+          .Add("loop_min_inliers", &SlamOptions::loop_min_inliers, "stereo SE(3) RANSAC inliers to accept a loop")
+          .Min(3)
+          .Add("loop_prior_radius_m", &SlamOptions::loop_prior_radius_m,
+               "keyframes whose priors lie within this distance are loop candidates", "m")
+          .Min(0)
+          .Add("loop_prior_gate_m", &SlamOptions::loop_prior_gate_m,
+               "reject a loop whose relative translation disagrees with the priors by more", "m")
+          .Min(0)
+          .Add("global_ba_iterations", &SlamOptions::global_ba_iterations, "solver iterations of the global BA")
+          .Min(0)
+          .Add("ransac_seed", &SlamOptions::ransac_seed, "seed of every RANSAC (same input and seed, same result)")
+          .Add("parallel", &SlamOptions::parallel, "extract left and right features concurrently (result unchanged)");
+  return t;
+}
+
+// Position priors in a local ENU frame at the first frame with a GNSS fix.
+std::vector<std::optional<PosePrior>> MakePriors(const std::vector<FrameRecord>& frames,
+                                                 const std::vector<FramePrior>& priors, double default_sigma_m) {
+  std::map<int64_t, const FramePrior*> by_id;
+  for (const auto& p : priors) by_id[p.id.value] = &p;
+  std::optional<GeographicLib::LocalCartesian> enu;
+  std::vector<std::optional<PosePrior>> out;
+  for (const auto& f : frames) {
+    const auto it = by_id.find(f.id.value);
+    if (it == by_id.end() || it->second->status != PriorStatus::kOk) {
+      out.emplace_back();
+      continue;
+    }
+    const FramePrior& p = *it->second;
+    const double h = std::isnan(p.alt_m) ? 0.0 : p.alt_m;
+    if (!enu) enu.emplace(p.lat_deg, p.lon_deg, h);
+    double x, y, z;
+    enu->Forward(p.lat_deg, p.lon_deg, h, x, y, z);
+    PosePrior prior;
+    prior.T_world_cam = Eigen::Isometry3d::Identity();
+    prior.T_world_cam.translation() = Eigen::Vector3d(x, y, z);
+    prior.has_position = true;
+    prior.has_attitude = false;  // camera-to-body mounting is not known here
+    prior.sigma_position_m = std::isnan(p.h_acc_m) ? default_sigma_m : std::max(0.01, p.h_acc_m);
+    out.push_back(prior);
+  }
+  return out;
+}
+
+void WriteMap(const fs::path& dir, const SlamMap& map) {
+  fs::create_directories(dir);
+  std::ofstream kf(dir / "keyframes.txt");
+  kf << "# keyframe_id frame_index t_ns segment  T_cam_world: tx ty tz qx qy qz qw\n";
+  for (const auto& k : map.keyframes) {
+    if (k.bad) continue;
+    const Eigen::Quaterniond q(k.T_cam_world.linear());
+    const Eigen::Vector3d t = k.T_cam_world.translation();
+    kf << fmt::format("{} {} {} {} {:.9f} {:.9f} {:.9f} {:.12f} {:.12f} {:.12f} {:.12f}\n", k.id, k.frame_index, k.t_ns,
+                      k.segment, t.x(), t.y(), t.z(), q.x(), q.y(), q.z(), q.w());
+  }
+  std::ofstream pts(dir / "points.txt");
+  pts << "# point_id x y z  then per observation: keyframe_id u_px v_px (left image, rectified)\n";
+  for (const auto& p : map.points) {
+    if (p.bad) continue;
+    pts << fmt::format("{} {:.6f} {:.6f} {:.6f}", p.id, p.p_world.x(), p.p_world.y(), p.p_world.z());
+    for (const auto& [kf_id, feature] : p.observations) {
+      const auto& kp = map.keyframes[kf_id].features.keypoints[feature];
+      pts << fmt::format(" {} {:.3f} {:.3f}", kf_id, kp.pt.x, kp.pt.y);
+    }
+    pts << '\n';
+  }
+  if (!kf || !pts) throw std::runtime_error("cannot write the SLAM map to " + dir.string());
+}
+
+}  // namespace
+
+void SlamStageOptions::Check() const { slam.Check(); }
+
+const OptionTable<SlamStageOptions>& SlamStageOptions::Table() {
+  static const auto t = OptionTable<SlamStageOptions>()
+                            .Include("", &SlamStageOptions::slam, SlamTable())
+                            .Add("use_gnss_priors", &SlamStageOptions::use_gnss_priors,
+                                 "use each frame's GNSS position (from the flight log) as a prior")
+                            .Add("default_prior_sigma_m", &SlamStageOptions::default_prior_sigma_m,
+                                 "GNSS position sigma when the log gives no accuracy", "m")
+                            .Above(0);
+  return t;
+}
+
+StageInfo SlamStage::Info() {
+  StageInfo info;
+  info.name = "slam";
+  info.version = 1;
+  info.doc = "Stereo visual SLAM (ORB features, stereo depth, motion-only and local bundle adjustment, loop "
+             "closing, global BA) over the frames in time order, GNSS positions as priors.";
+  info.inputs = {"frames", "calibration", "priors"};
+  info.outputs = {"trajectory", "map"};
+  info.published = {{"trajectory.tum", "trajectory.tum"}, {"keyframes.tum", "keyframes.tum"}};
+  info.per_frame = true;  // its result depends on the frame selection
+  return info;
+}
+
+void SlamStage::Run(StageContext& ctx, const SlamStageOptions& o) const {
+  const auto all = ReadFrameIndex(ctx.input_dir("frames") / "frames.csv");
+  std::vector<FrameRecord> frames;
+  for (const auto& f : all)
+    if (ctx.frame_selection().Contains(f.id.value)) frames.push_back(f);
+  const StereoCalibration calib = ReadCalibrationYaml(ctx.input_dir("calibration") / "calibration.yaml");
+  const auto priors =
+      o.use_gnss_priors
+          ? MakePriors(frames, ReadFramePriors(ctx.input_dir("priors") / "frame_priors.csv"), o.default_prior_sigma_m)
+          : std::vector<std::optional<PosePrior>>(frames.size());
+
+  StereoSlam slam(calib, o.slam);
+  ctx.progress().Start("slam", static_cast<int64_t>(frames.size()));
+  std::ofstream status(ctx.out_dir() / "frame_status.csv");
+  status << "frame_id,t_ns,status,segment,features,stereo_features,inliers,keyframe\n";
+  std::map<std::string, int> by_status;
+  for (size_t i = 0; i < frames.size(); ++i) {
+    const auto& f = frames[i];
+    // Images are read one frame at a time: memory stays flat however long the survey.
+    const FrameResult r = slam.Track(f.t_ns, LoadGray8(f.left), LoadGray8(f.right), priors[i]);
+    status << fmt::format("{},{},{},{},{},{},{},{}\n", f.id.value, f.t_ns, ToString(r.status), r.segment, r.features,
+                          r.stereo_features, r.inliers, r.keyframe ? 1 : 0);
+    ++by_status[ToString(r.status)];
+    ctx.progress().Advance();
+  }
+  ctx.progress().Finish();
+  const SlamResult result = slam.Finish();
+
+  WriteTumTrajectory(ctx.out_dir() / "trajectory.tum", result.frames);
+  WriteTumTrajectory(ctx.out_dir() / "keyframes.tum", result.keyframes);
+  WriteMap(ctx.out_dir() / "map", result.map);
+  const auto& s = result.stats;
+  ctx.summary().frames_total = static_cast<int64_t>(frames.size());
+  ctx.summary().frames_computed = static_cast<int64_t>(frames.size());
+  for (const auto& [k, v] : by_status) ctx.Count("frames_" + k, v);
+  ctx.Count("keyframes", s.keyframes);
+  ctx.Count("map_points", s.map_points);
+  ctx.Count("segments", s.segments);
+  ctx.Count("loops_closed", s.loops_closed);
+  ctx.Count("loop_candidates", s.loop_candidates);
+  ctx.Time("track", s.track_s);
+  ctx.Time("finish", s.finish_s);
+  if (s.prior_only > 0)
+    ctx.Warn(fmt::format("{} frame(s) only positioned by prediction/prior (tracking lost): see frame_status.csv",
+                         s.prior_only));
+  WriteJsonAtomic(ctx.out_dir() / "slam.json", {{"report", s.BriefReport()}, {"statuses", by_status}});
+}
+
+}  // namespace rs

@@ -1,0 +1,705 @@
+#include "stages/slam/stereo_slam.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <map>
+#include <set>
+#include <stdexcept>
+
+#include <fmt/format.h>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core/eigen.hpp>
+
+#include "stages/slam/bundle_adjust.h"
+#include "stages/slam/loop_closing.h"
+#include "stages/slam/pose_optimizer.h"
+
+namespace rs {
+
+const char* ToString(FrameStatus status) {
+  switch (status) {
+    case FrameStatus::kTracked: return "tracked";
+    case FrameStatus::kRelocalised: return "relocalised";
+    case FrameStatus::kPriorOnly: return "prior-only";
+  }
+  return "?";
+}
+
+std::string SlamStatistics::BriefReport() const {
+  return fmt::format("{} frames ({} tracked, {} relocalised, {} prior-only), {} keyframes, {} points, {} segments, "
+                     "{} loops closed ({} rejected of {} candidates)",
+                     frames, tracked, relocalised, prior_only, keyframes, map_points, segments, loops_closed,
+                     loops_rejected, loop_candidates);
+}
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double Seconds(Clock::time_point a) { return std::chrono::duration<double>(Clock::now() - a).count(); }
+
+// The frame being tracked (and, after Track, the previous frame).
+struct TrackFrame {
+  int index = -1;
+  int64_t t_ns = 0;
+  StereoFeatures f;
+  std::vector<int> mp;                 // map point per feature, -1 none
+  std::vector<Eigen::Vector3d> p_world;  // 3-D point per matched feature (map point or temporary stereo point)
+  std::vector<char> has;               // p_world valid
+  Eigen::Isometry3d T_cam_world = Eigen::Isometry3d::Identity();
+  std::optional<PosePrior> prior;
+  void Reset(size_t n) {
+    mp.assign(n, -1);
+    p_world.assign(n, Eigen::Vector3d::Zero());
+    has.assign(n, 0);
+  }
+};
+
+struct FrameRecord {
+  int64_t t_ns = 0;
+  int ref_kf = -1;
+  Eigen::Isometry3d T_cam_ref = Eigen::Isometry3d::Identity();
+  FrameStatus status = FrameStatus::kTracked;
+  int segment = 0;
+};
+
+}  // namespace
+
+struct StereoSlam::Impl {
+  SlamOptions opt;
+  StereoCamera cam;
+  ScalePyramid pyr;
+  SlamMap map;
+  double close_depth_m = 0;
+  std::vector<FrameRecord> records;
+  TrackFrame last;
+  bool has_last = false;
+  Eigen::Isometry3d velocity = Eigen::Isometry3d::Identity();
+  bool has_velocity = false;
+  int ref_kf = -1;
+  int last_kf_frame = -1;
+  int segment = 0;
+  std::vector<int> point_mark;  // last frame index a point was put in the local map
+  std::vector<std::pair<int, int>> recent_points;  // (point, keyframe that created it)
+  SlamStatistics stats;
+  bool finished = false;
+
+  Eigen::Vector3d Backproject(const StereoFeatures& f, int i) const {
+    const double z = f.depth_m[i];
+    return {(f.keypoints[i].pt.x - cam.cx) * z / cam.fx, (f.keypoints[i].pt.y - cam.cy) * z / cam.fy, z};
+  }
+
+  // Best feature of `cur` for a projected point; -1 if none within the limits.
+  int SearchOne(const TrackFrame& cur, const uint8_t* desc, double u, double v, double ur_pred, double radius,
+                int min_level, int max_level, bool ratio_test, int max_hamming) const {
+    const std::vector<int> cand = cur.f.FeaturesInArea(u, v, radius, min_level, max_level);
+    int best = 256, second = 256, best_i = -1, best_level = -1, second_level = -1;
+    for (int i : cand) {
+      if (cur.has[i]) continue;
+      if (ur_pred >= 0 && cur.f.u_right[i] >= 0 && std::abs(ur_pred - cur.f.u_right[i]) > radius) continue;
+      const int d = DescriptorDistance(desc, cur.f.descriptors.ptr<uint8_t>(i));
+      if (d < best) {
+        second = best;
+        second_level = best_level;
+        best = d;
+        best_i = i;
+        best_level = cur.f.keypoints[i].octave;
+      } else if (d < second) {
+        second = d;
+        second_level = cur.f.keypoints[i].octave;
+      }
+    }
+    if (best_i < 0 || best > max_hamming) return -1;
+    if (ratio_test && best_level == second_level && best > opt.match_ratio * second) return -1;
+    return best_i;
+  }
+
+  std::vector<PoseObservation> Observations(const TrackFrame& cur, std::vector<int>* index) const {
+    std::vector<PoseObservation> obs;
+    index->clear();
+    for (size_t i = 0; i < cur.f.size(); ++i) {
+      if (!cur.has[i]) continue;
+      PoseObservation o;
+      o.p_world = cur.mp[i] >= 0 ? map.points[cur.mp[i]].p_world : cur.p_world[i];
+      o.u = cur.f.keypoints[i].pt.x;
+      o.v = cur.f.keypoints[i].pt.y;
+      o.u_right = cur.f.u_right[i];
+      o.inv_sigma2 = pyr.inv_sigma2[cur.f.keypoints[i].octave];
+      obs.push_back(o);
+      index->push_back(static_cast<int>(i));
+    }
+    return obs;
+  }
+
+  // Optimises cur's pose, drops outlier matches; returns the map-point inliers.
+  int OptimizeAndClean(TrackFrame* cur) {
+    std::vector<int> index;
+    std::vector<PoseObservation> obs = Observations(*cur, &index);
+    if (obs.size() < 3) return 0;
+    OptimizePose(cam, &obs, &cur->T_cam_world);
+    int map_inliers = 0;
+    for (size_t k = 0; k < obs.size(); ++k) {
+      const int i = index[k];
+      if (obs[k].outlier) {
+        cur->has[i] = 0;
+        cur->mp[i] = -1;
+      } else if (cur->mp[i] >= 0) {
+        ++map_inliers;
+      }
+    }
+    return map_inliers;
+  }
+
+  // Refreshes the previous frame after BA moved its reference keyframe, and adds temporary stereo
+  // points for its unmatched close features (visual odometry between keyframes).
+  void UpdateLastFrame() {
+    const FrameRecord& rec = records.back();
+    if (rec.ref_kf >= 0) last.T_cam_world = rec.T_cam_ref * map.keyframes[rec.ref_kf].T_cam_world;
+    const Eigen::Isometry3d T_world_cam = last.T_cam_world.inverse();
+    std::vector<std::pair<float, int>> by_depth;
+    for (size_t i = 0; i < last.f.size(); ++i) {
+      if (last.mp[i] >= 0 && map.points[last.mp[i]].bad) {
+        last.mp[i] = -1;
+        last.has[i] = 0;
+      }
+      if (last.mp[i] < 0) last.has[i] = 0;
+      if (last.f.depth_m[i] > 0 && last.mp[i] < 0) by_depth.emplace_back(last.f.depth_m[i], static_cast<int>(i));
+    }
+    std::sort(by_depth.begin(), by_depth.end());
+    int added = 0;
+    for (auto& [d, i] : by_depth) {
+      if (d > close_depth_m && added >= 100) break;
+      last.p_world[i] = T_world_cam * Backproject(last.f, i);
+      last.has[i] = 1;
+      ++added;
+    }
+  }
+
+  int MatchFromLast(TrackFrame* cur, double radius_factor) {
+    cur->Reset(cur->f.size());
+    int matches = 0;
+    for (size_t i = 0; i < last.f.size(); ++i) {
+      if (!last.has[i]) continue;
+      const Eigen::Vector3d pw = last.mp[i] >= 0 ? map.points[last.mp[i]].p_world : last.p_world[i];
+      const Eigen::Vector3d pc = cur->T_cam_world * pw;
+      if (pc.z() <= 0) continue;
+      const double u = cam.fx * pc.x() / pc.z() + cam.cx, v = cam.fy * pc.y() / pc.z() + cam.cy;
+      if (u < 0 || v < 0 || u >= cam.width || v >= cam.height) continue;
+      const double ur = u - cam.bf() / pc.z();
+      const int level = last.f.keypoints[i].octave;
+      const double radius = radius_factor * opt.search_radius_px * pyr.scale[level];
+      const uint8_t* desc = last.mp[i] >= 0 ? map.points[last.mp[i]].descriptor.ptr<uint8_t>(0)
+                                            : last.f.descriptors.ptr<uint8_t>(static_cast<int>(i));
+      const int j = SearchOne(*cur, desc, u, v, ur, radius, std::max(0, level - 1), level + 1, false,
+                              opt.match_max_hamming);
+      if (j < 0) continue;
+      cur->mp[j] = last.mp[i] >= 0 ? last.mp[i] : -2;  // -2: temporary point (not in the map)
+      cur->p_world[j] = pw;
+      cur->has[j] = 1;
+      ++matches;
+    }
+    for (int& m : cur->mp)
+      if (m == -2) m = -1;
+    return matches;
+  }
+
+  bool TrackWithMotionModel(TrackFrame* cur) {
+    const Eigen::Isometry3d predicted = cur->T_cam_world;
+    int matches = MatchFromLast(cur, 1.0);
+    if (matches < 20) {
+      cur->T_cam_world = predicted;
+      matches = MatchFromLast(cur, 2.0);
+    }
+    if (matches < 20) return false;
+    return OptimizeAndClean(cur) >= 10;
+  }
+
+  // Matches cur against keyframe kf's map points by descriptor, then PnP RANSAC; true with >= 15 inliers.
+  bool RelocaliseAgainst(TrackFrame* cur, int kf_id) {
+    const Keyframe& kf = map.keyframes[kf_id];
+    std::vector<cv::Point3d> obj;
+    std::vector<cv::Point2d> img;
+    std::vector<std::pair<int, int>> pairs;  // (cur feature, map point)
+    std::vector<int> kf_feats;
+    for (size_t j = 0; j < kf.points.size(); ++j)
+      if (kf.points[j] >= 0 && !map.points[kf.points[j]].bad) kf_feats.push_back(static_cast<int>(j));
+    std::vector<int> used(map.points.size(), 0);
+    for (size_t i = 0; i < cur->f.size(); ++i) {
+      int best = 256, second = 256, best_j = -1;
+      const uint8_t* d = cur->f.descriptors.ptr<uint8_t>(static_cast<int>(i));
+      for (int j : kf_feats) {
+        const int dist = DescriptorDistance(d, kf.features.descriptors.ptr<uint8_t>(j));
+        if (dist < best) {
+          second = best;
+          best = dist;
+          best_j = j;
+        } else if (dist < second) {
+          second = dist;
+        }
+      }
+      if (best_j < 0 || best > 64 || best > 0.75 * second) continue;
+      const int p = kf.points[best_j];
+      if (used[p]++) continue;
+      const Eigen::Vector3d& x = map.points[p].p_world;
+      obj.emplace_back(x.x(), x.y(), x.z());
+      img.emplace_back(cur->f.keypoints[i].pt.x, cur->f.keypoints[i].pt.y);
+      pairs.emplace_back(static_cast<int>(i), p);
+    }
+    if (pairs.size() < 15) return false;
+    cv::Mat K = (cv::Mat_<double>(3, 3) << cam.fx, 0, cam.cx, 0, cam.fy, cam.cy, 0, 0, 1);
+    cv::Mat rvec, tvec;
+    std::vector<int> inliers;
+    cv::theRNG().state = opt.ransac_seed;  // solvePnPRansac draws from OpenCV's RNG: fix it
+    if (!cv::solvePnPRansac(obj, img, K, cv::noArray(), rvec, tvec, false, 300, 3.0f, 0.99, inliers,
+                            cv::SOLVEPNP_EPNP) ||
+        inliers.size() < 15)
+      return false;
+    cv::Mat R;
+    cv::Rodrigues(rvec, R);
+    Eigen::Matrix3d Re;
+    cv::cv2eigen(R, Re);
+    cur->T_cam_world.linear() = Re;
+    cur->T_cam_world.translation() = Eigen::Vector3d(tvec.at<double>(0), tvec.at<double>(1), tvec.at<double>(2));
+    cur->Reset(cur->f.size());
+    for (int k : inliers) {
+      const auto [i, p] = pairs[k];
+      cur->mp[i] = p;
+      cur->p_world[i] = map.points[p].p_world;
+      cur->has[i] = 1;
+    }
+    return OptimizeAndClean(cur) >= 15;
+  }
+
+  // Descriptor matching against the reference keyframe (no motion prior needed).
+  bool TrackReferenceKeyframe(TrackFrame* cur) {
+    const Eigen::Isometry3d start = cur->T_cam_world;
+    if (ref_kf >= 0 && RelocaliseAgainst(cur, ref_kf)) return true;
+    cur->T_cam_world = start;
+    cur->Reset(cur->f.size());
+    return false;
+  }
+
+  bool Relocalise(TrackFrame* cur) {
+    std::vector<int> cand;
+    auto add = [&](int k) {
+      if (k >= 0 && !map.keyframes[k].bad && std::find(cand.begin(), cand.end(), k) == cand.end()) cand.push_back(k);
+    };
+    add(ref_kf);
+    if (ref_kf >= 0)
+      for (int k : map.keyframes[ref_kf].BestCovisible(4)) add(k);
+    for (int k = static_cast<int>(map.keyframes.size()) - 1; k >= 0 && cand.size() < 8; --k) add(k);
+    if (cur->prior && cur->prior->has_position) {
+      for (const Keyframe& kf : map.keyframes) {
+        if (cand.size() >= 14) break;
+        if (kf.prior && kf.prior->has_position &&
+            (kf.prior->T_world_cam.translation() - cur->prior->T_world_cam.translation()).norm() <
+                opt.loop_prior_radius_m * 0.5)
+          add(kf.id);
+      }
+    }
+    const Eigen::Isometry3d start = cur->T_cam_world;
+    for (int k : cand) {
+      cur->T_cam_world = start;
+      if (RelocaliseAgainst(cur, k)) return true;
+    }
+    cur->T_cam_world = start;
+    cur->Reset(cur->f.size());
+    return false;
+  }
+
+  std::vector<int> LocalKeyframes(const TrackFrame& cur) {
+    std::map<int, int> counts;
+    for (size_t i = 0; i < cur.f.size(); ++i)
+      if (cur.mp[i] >= 0)
+        for (auto& [k, f] : map.points[cur.mp[i]].observations) ++counts[k];
+    std::vector<std::pair<int, int>> order;
+    for (auto& [k, c] : counts) order.emplace_back(-c, k);
+    std::sort(order.begin(), order.end());
+    std::vector<int> local;
+    std::set<int> in;
+    for (auto& [c, k] : order) {
+      if (static_cast<int>(local.size()) >= opt.local_map_keyframes) break;
+      local.push_back(k);
+      in.insert(k);
+    }
+    if (!order.empty()) ref_kf = order.front().second;
+    const size_t direct = local.size();
+    for (size_t n = 0; n < direct && static_cast<int>(local.size()) < opt.local_map_keyframes; ++n) {
+      for (int k : map.keyframes[local[n]].BestCovisible(5)) {
+        if (static_cast<int>(local.size()) >= opt.local_map_keyframes) break;
+        if (in.insert(k).second) local.push_back(k);
+      }
+    }
+    return local;
+  }
+
+  int TrackLocalMap(TrackFrame* cur, double th) {
+    const std::vector<int> local = LocalKeyframes(*cur);
+    if (point_mark.size() < map.points.size()) point_mark.resize(map.points.size(), -1);
+    for (size_t i = 0; i < cur->f.size(); ++i)
+      if (cur->mp[i] >= 0) point_mark[cur->mp[i]] = cur->index;
+    const Eigen::Isometry3d T_world_cam = cur->T_cam_world.inverse();
+    const Eigen::Vector3d center = T_world_cam.translation();
+    for (int k : local) {
+      for (int p : map.keyframes[k].points) {
+        if (p < 0 || point_mark[p] == cur->index) continue;
+        point_mark[p] = cur->index;
+        MapPoint& mp = map.points[p];
+        if (mp.bad) continue;
+        const Eigen::Vector3d pc = cur->T_cam_world * mp.p_world;
+        if (pc.z() <= 0) continue;
+        const double u = cam.fx * pc.x() / pc.z() + cam.cx, v = cam.fy * pc.y() / pc.z() + cam.cy;
+        if (u < 0 || v < 0 || u >= cam.width || v >= cam.height) continue;
+        const Eigen::Vector3d ray = mp.p_world - center;
+        const double dist = ray.norm();
+        if (dist < 0.8 * mp.min_distance_m || dist > 1.2 * mp.max_distance_m) continue;
+        const double view_cos = ray.dot(mp.normal) / dist;
+        if (view_cos < 0.5) continue;
+        ++mp.visible;
+        const int level = pyr.PredictLevel(dist, mp.max_distance_m);
+        const double radius = (view_cos > 0.998 ? 2.5 : 4.0) * th * pyr.scale[level];
+        const double ur = u - cam.bf() / pc.z();
+        const int j = SearchOne(*cur, mp.descriptor.ptr<uint8_t>(0), u, v, ur, radius, std::max(0, level - 1), level,
+                                true, opt.match_max_hamming);
+        if (j < 0) continue;
+        cur->mp[j] = p;
+        cur->p_world[j] = mp.p_world;
+        cur->has[j] = 1;
+      }
+    }
+    const int inliers = OptimizeAndClean(cur);
+    for (size_t i = 0; i < cur->f.size(); ++i)
+      if (cur->mp[i] >= 0) ++map.points[cur->mp[i]].found;
+    return inliers;
+  }
+
+  bool NeedKeyframe(const TrackFrame& cur, int inliers) const {
+    if (ref_kf < 0) return true;
+    const int min_obs = map.keyframes.size() <= 2 ? 2 : 3;
+    int ref_matches = 0;
+    for (int p : map.keyframes[ref_kf].points)
+      if (p >= 0 && !map.points[p].bad && static_cast<int>(map.points[p].observations.size()) >= min_obs) ++ref_matches;
+    int tracked_close = 0, untracked_close = 0;
+    for (size_t i = 0; i < cur.f.size(); ++i) {
+      if (cur.f.depth_m[i] <= 0 || cur.f.depth_m[i] > close_depth_m) continue;
+      if (cur.mp[i] >= 0) ++tracked_close; else ++untracked_close;
+    }
+    const bool need_close = tracked_close < 100 && untracked_close > 70;
+    const bool gap = cur.index - last_kf_frame >= opt.keyframe_max_gap;
+    const bool weak = inliers < opt.keyframe_tracked_ratio * ref_matches || need_close;
+    return (gap || weak) && inliers > 15;
+  }
+
+  int CreateKeyframe(TrackFrame* cur, bool new_segment) {
+    Keyframe kf;
+    kf.id = static_cast<int>(map.keyframes.size());
+    kf.frame_index = cur->index;
+    kf.t_ns = cur->t_ns;
+    kf.T_cam_world = cur->T_cam_world;
+    kf.features = cur->f;
+    kf.points.assign(cur->f.size(), -1);
+    kf.segment = segment;
+    kf.prior = cur->prior;
+    map.keyframes.push_back(std::move(kf));
+    const int id = map.keyframes.back().id;
+    std::vector<int> touched;
+    for (size_t i = 0; i < cur->f.size(); ++i) {
+      const int p = cur->mp[i];
+      if (p < 0 || map.points[p].bad || map.points[p].observations.count(id)) continue;
+      map.AddObservation(p, id, static_cast<int>(i));
+      touched.push_back(p);
+    }
+    // New points from stereo: every close one, and at least the 100 nearest.
+    std::vector<std::pair<float, int>> by_depth;
+    for (size_t i = 0; i < cur->f.size(); ++i)
+      if (cur->f.depth_m[i] > 0 && map.keyframes[id].points[i] < 0) by_depth.emplace_back(cur->f.depth_m[i], static_cast<int>(i));
+    std::sort(by_depth.begin(), by_depth.end());
+    const Eigen::Isometry3d T_world_cam = cur->T_cam_world.inverse();
+    int created = 0;
+    for (auto& [d, i] : by_depth) {
+      if (d > close_depth_m && created >= 100) break;
+      const int p = map.AddPoint(T_world_cam * Backproject(cur->f, i), id, i);
+      map.UpdatePointGeometry(p, pyr);
+      recent_points.emplace_back(p, id);
+      cur->mp[i] = p;
+      cur->p_world[i] = map.points[p].p_world;
+      cur->has[i] = 1;
+      ++created;
+    }
+    for (int p : touched) {
+      map.UpdatePointDescriptor(p);
+      map.UpdatePointGeometry(p, pyr);
+    }
+    map.UpdateCovisibility(id);
+    ref_kf = id;
+    last_kf_frame = cur->index;
+    if (!new_segment) LocalMapping(id);
+    return id;
+  }
+
+  void CullRecentPoints(int kf) {
+    std::vector<std::pair<int, int>> keep;
+    for (auto [p, created] : recent_points) {
+      MapPoint& mp = map.points[p];
+      if (mp.bad) continue;
+      if (static_cast<double>(mp.found) / mp.visible < 0.25) {
+        map.SetBad(p);
+      } else if (kf - created >= 2 && mp.observations.size() <= 1) {
+        map.SetBad(p);
+      } else if (kf - created < 3) {
+        keep.emplace_back(p, created);
+      }
+    }
+    recent_points.swap(keep);
+  }
+
+  // Projects points into keyframe `target`; merges with or adds to the feature found there.
+  void FuseInto(int target, const std::vector<int>& pts) {
+    Keyframe& kf = map.keyframes[target];
+    const Eigen::Vector3d center = kf.Center();
+    for (int p : pts) {
+      if (p < 0 || map.points[p].bad || map.points[p].observations.count(target)) continue;
+      const MapPoint& mp = map.points[p];
+      const Eigen::Vector3d pc = kf.T_cam_world * mp.p_world;
+      if (pc.z() <= 0) continue;
+      const double u = cam.fx * pc.x() / pc.z() + cam.cx, v = cam.fy * pc.y() / pc.z() + cam.cy;
+      if (u < 0 || v < 0 || u >= cam.width || v >= cam.height) continue;
+      const double ur = u - cam.bf() / pc.z();
+      const Eigen::Vector3d ray = mp.p_world - center;
+      const double dist = ray.norm();
+      if (dist < 0.8 * mp.min_distance_m || dist > 1.2 * mp.max_distance_m) continue;
+      if (ray.dot(mp.normal) < 0.5 * dist) continue;
+      const int level = pyr.PredictLevel(dist, mp.max_distance_m);
+      const double radius = 3.0 * pyr.scale[level];
+      int best = 256, best_i = -1;
+      for (int i : kf.features.FeaturesInArea(u, v, radius, std::max(0, level - 1), level + 1)) {
+        const cv::KeyPoint& kp = kf.features.keypoints[i];
+        double e2 = std::pow(kp.pt.x - u, 2) + std::pow(kp.pt.y - v, 2);
+        const bool stereo = kf.features.u_right[i] >= 0;
+        if (stereo) e2 += std::pow(kf.features.u_right[i] - ur, 2);
+        if (e2 * pyr.inv_sigma2[kp.octave] > (stereo ? kChi2Stereo : kChi2Mono)) continue;
+        const int d = DescriptorDistance(mp.descriptor.ptr<uint8_t>(0), kf.features.descriptors.ptr<uint8_t>(i));
+        if (d < best) {
+          best = d;
+          best_i = i;
+        }
+      }
+      if (best_i < 0 || best > 50) continue;
+      const int existing = kf.points[best_i];
+      if (existing >= 0 && !map.points[existing].bad) {
+        if (map.points[existing].observations.size() >= mp.observations.size()) map.Replace(p, existing);
+        else map.Replace(existing, p);
+      } else {
+        map.AddObservation(p, target, best_i);
+      }
+    }
+  }
+
+  void LocalMapping(int kf) {
+    const auto t0 = Clock::now();
+    CullRecentPoints(kf);
+    std::vector<int> neighbours = map.keyframes[kf].BestCovisible(10);
+    {
+      std::set<int> in(neighbours.begin(), neighbours.end());
+      const size_t direct = neighbours.size();
+      for (size_t n = 0; n < direct; ++n)
+        for (int k : map.keyframes[neighbours[n]].BestCovisible(5))
+          if (k != kf && in.insert(k).second) neighbours.push_back(k);
+    }
+    for (int n : neighbours) FuseInto(n, map.keyframes[kf].points);
+    std::vector<int> theirs;
+    {
+      std::set<int> seen;
+      for (int n : neighbours)
+        for (int p : map.keyframes[n].points)
+          if (p >= 0 && !map.points[p].bad && seen.insert(p).second) theirs.push_back(p);
+    }
+    FuseInto(kf, theirs);
+    for (int p : map.keyframes[kf].points) {
+      if (p < 0 || map.points[p].bad) continue;
+      map.UpdatePointDescriptor(p);
+      map.UpdatePointGeometry(p, pyr);
+    }
+    map.UpdateCovisibility(kf);
+    std::vector<int> window = {kf};
+    for (int k : map.keyframes[kf].BestCovisible(opt.local_ba_keyframes - 1))
+      if (map.keyframes[k].segment == map.keyframes[kf].segment) window.push_back(k);
+    BundleAdjust(&map, window, cam, pyr, opt.local_ba_iterations, true);
+    map.UpdateCovisibility(kf);
+    stats.local_mapping_s += Seconds(t0);
+  }
+
+  FrameResult Track(int64_t t_ns, const cv::Mat& left, const cv::Mat& right, const std::optional<PosePrior>& prior) {
+    if (finished) throw std::invalid_argument("StereoSlam::Track called after Finish");
+    if (left.type() != CV_8UC1 || right.type() != CV_8UC1 || left.cols != cam.width || left.rows != cam.height ||
+        right.size() != left.size())
+      throw std::invalid_argument(fmt::format("StereoSlam::Track: expected two 8-bit grey {}x{} images, got {}x{} and {}x{}",
+                                              cam.width, cam.height, left.cols, left.rows, right.cols, right.rows));
+    if (!records.empty() && t_ns <= records.back().t_ns)
+      throw std::invalid_argument(fmt::format("StereoSlam::Track: time {} ns does not follow {} ns", t_ns, records.back().t_ns));
+    const auto t0 = Clock::now();
+    TrackFrame cur;
+    cur.index = static_cast<int>(records.size());
+    cur.t_ns = t_ns;
+    cur.prior = prior;
+    cur.f = ExtractStereoFeatures(left, right, cam, opt, pyr);
+    cur.Reset(cur.f.size());
+    FrameResult result;
+    result.index = cur.index;
+    result.t_ns = t_ns;
+    result.features = static_cast<int>(cur.f.size());
+    for (float d : cur.f.depth_m) result.stereo_features += d > 0;
+
+    FrameStatus status = FrameStatus::kTracked;
+    if (map.keyframes.empty()) {
+      CreateKeyframe(&cur, true);
+      result.keyframe = true;
+    } else {
+      UpdateLastFrame();
+      // Prediction: constant velocity; without one, the prior's relative motion; else the last pose.
+      if (has_velocity) {
+        cur.T_cam_world = velocity * last.T_cam_world;
+      } else if (prior && last.prior && prior->has_position && prior->has_attitude && last.prior->has_attitude) {
+        cur.T_cam_world = (last.prior->T_world_cam.inverse() * prior->T_world_cam).inverse() * last.T_cam_world;
+      } else {
+        cur.T_cam_world = last.T_cam_world;
+      }
+      const Eigen::Isometry3d predicted = cur.T_cam_world;
+      bool ok = TrackWithMotionModel(&cur);
+      if (!ok) {
+        cur.T_cam_world = predicted;
+        ok = TrackReferenceKeyframe(&cur);
+      }
+      if (!ok) {
+        cur.T_cam_world = predicted;
+        ok = Relocalise(&cur);
+        if (ok) status = FrameStatus::kRelocalised;
+      }
+      int inliers = 0;
+      if (ok) {
+        inliers = TrackLocalMap(&cur, status == FrameStatus::kRelocalised ? 3.0 : 1.0);
+        ok = inliers >= opt.min_tracked_inliers;
+      }
+      if (!ok && status == FrameStatus::kTracked) {
+        cur.T_cam_world = predicted;
+        cur.Reset(cur.f.size());
+        if (Relocalise(&cur)) {
+          status = FrameStatus::kRelocalised;
+          inliers = TrackLocalMap(&cur, 3.0);
+          ok = inliers >= opt.min_tracked_inliers;
+        }
+      }
+      if (ok) {
+        result.inliers = inliers;
+        if (NeedKeyframe(cur, inliers)) {
+          CreateKeyframe(&cur, false);
+          result.keyframe = true;
+        }
+      } else {
+        // Lost: keep the prediction and start a new map segment from this frame's stereo points;
+        // Finish() links the segments (sequential pose-graph edge, loops) and optimises them together.
+        status = FrameStatus::kPriorOnly;
+        cur.T_cam_world = predicted;
+        cur.Reset(cur.f.size());
+        ++segment;
+        ++stats.segments;
+        CreateKeyframe(&cur, true);
+        result.keyframe = true;
+      }
+      if (status != FrameStatus::kPriorOnly) {
+        velocity = cur.T_cam_world * last.T_cam_world.inverse();
+        has_velocity = true;
+      }
+    }
+    FrameRecord rec;
+    rec.t_ns = t_ns;
+    rec.ref_kf = ref_kf;
+    rec.T_cam_ref = cur.T_cam_world * map.keyframes[ref_kf].T_cam_world.inverse();
+    rec.status = status;
+    rec.segment = segment;
+    records.push_back(rec);
+    ++stats.frames;
+    if (status == FrameStatus::kTracked) ++stats.tracked;
+    if (status == FrameStatus::kRelocalised) ++stats.relocalised;
+    if (status == FrameStatus::kPriorOnly) ++stats.prior_only;
+    result.status = status;
+    result.segment = segment;
+    result.T_world_cam = cur.T_cam_world.inverse();
+    last = std::move(cur);
+    has_last = true;
+    stats.track_s += Seconds(t0);
+    return result;
+  }
+
+  SlamResult Finish() {
+    if (finished) throw std::invalid_argument("StereoSlam::Finish called twice");
+    finished = true;
+    const auto t0 = Clock::now();
+    SlamResult out;
+    if (map.keyframes.size() >= 2) {
+      std::vector<LoopClosure> loops;
+      if (opt.loop_closure) loops = DetectAndCloseLoops(&map, cam, pyr, opt, &stats);
+      out.loops = loops;
+      if (opt.global_ba_iterations > 0) {
+        std::vector<int> all;
+        for (const Keyframe& kf : map.keyframes)
+          if (kf.id > 0 && !kf.bad) all.push_back(kf.id);
+        BundleAdjust(&map, all, cam, pyr, opt.global_ba_iterations, true, {0});
+      }
+    }
+    out.frames.source = "StereoSlam";
+    for (size_t i = 0; i < records.size(); ++i) {
+      const FrameRecord& r = records[i];
+      StampedPose sp;
+      sp.t_ns = r.t_ns;
+      sp.T_world_frame = (r.T_cam_ref * map.keyframes[r.ref_kf].T_cam_world).inverse();
+      out.frames.poses.push_back(sp);
+      out.status.push_back(r.status);
+      out.frame_segment.push_back(r.segment);
+    }
+    out.keyframes.source = "StereoSlam keyframes";
+    for (const Keyframe& kf : map.keyframes) {
+      if (kf.bad) continue;
+      out.keyframes.poses.push_back({kf.t_ns, kf.T_cam_world.inverse()});
+    }
+    stats.keyframes = static_cast<int>(out.keyframes.poses.size());
+    stats.map_points = 0;
+    for (const MapPoint& p : map.points) stats.map_points += !p.bad;
+    stats.finish_s = Seconds(t0);
+    out.stats = stats;
+    out.map = std::move(map);
+    return out;
+  }
+};
+
+StereoSlam::StereoSlam(const StereoCalibration& rectified, const SlamOptions& options) : impl_(std::make_unique<Impl>()) {
+  options.Check();
+  if (!rectified.rectified)
+    throw std::invalid_argument("StereoSlam needs a rectified calibration (rectify raw pairs with StereoRectifier)");
+  const double b = rectified.BaselineM();
+  if (!(b > 0) || !(rectified.left.fx > 0) || rectified.left.width <= 0 || rectified.left.height <= 0)
+    throw std::invalid_argument(fmt::format("StereoSlam: calibration needs baseline > 0, fx > 0 and an image size (baseline {} m, fx {} px, {}x{})",
+                                            b, rectified.left.fx, rectified.left.width, rectified.left.height));
+  Impl& s = *impl_;
+  s.opt = options;
+  s.cam.fx = rectified.left.fx;
+  s.cam.fy = rectified.left.fy;
+  s.cam.cx = rectified.left.cx;
+  s.cam.cy = rectified.left.cy;
+  s.cam.baseline_m = b;
+  s.cam.width = rectified.left.width;
+  s.cam.height = rectified.left.height;
+  s.pyr = ScalePyramid(options.pyramid_levels, options.scale_factor);
+  s.close_depth_m = options.close_depth_baselines * b;
+}
+
+StereoSlam::~StereoSlam() = default;
+
+FrameResult StereoSlam::Track(int64_t t_ns, const cv::Mat& left, const cv::Mat& right,
+                              const std::optional<PosePrior>& prior) {
+  return impl_->Track(t_ns, left, right, prior);
+}
+
+SlamResult StereoSlam::Finish() { return impl_->Finish(); }
+
+}  // namespace rs

@@ -1,0 +1,103 @@
+#pragma once
+// Offline stereo visual SLAM (ORB-SLAM2 class): ORB front end with stereo depths, constant-velocity
+// tracking against the previous frame and the local map, keyframes with synchronous local mapping
+// (point culling, fusion, local BA), relocalisation or a new map segment on tracking loss, and in
+// Finish() loop detection (bag of words built from the survey's own descriptors + prior proximity),
+// geometric verification, pose-graph optimisation and a global BA. Single-threaded apart from the
+// left/right feature extraction, so the same input always gives the same trajectory.
+// Algorithm and figures: docs/stages/slam.md.
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+#include <opencv2/core/mat.hpp>
+
+#include "formats/stereo_calibration.h"
+#include "formats/trajectory/trajectory.h"
+#include "stages/slam/slam_map.h"
+#include "stages/slam/slam_options.h"
+
+namespace rs {
+
+/// How the pose of a frame was obtained.
+enum class FrameStatus {
+  kTracked,      ///< tracked against the previous frame and the local map
+  kRelocalised,  ///< motion-model tracking failed; pose found by matching keyframes (PnP RANSAC)
+  kPriorOnly,    ///< tracking and relocalisation failed: pose predicted (prior / motion model), new map segment
+};
+/// "tracked", "relocalised", "prior-only".
+const char* ToString(FrameStatus status);
+
+/// Per-frame outcome of StereoSlam::Track.
+struct FrameResult {
+  int index = 0;                 ///< 0-based Track call
+  int64_t t_ns = 0;
+  FrameStatus status = FrameStatus::kTracked;
+  Eigen::Isometry3d T_world_cam = Eigen::Isometry3d::Identity();  ///< at tracking time (before loop closing)
+  int features = 0;              ///< ORB features in the left image
+  int stereo_features = 0;       ///< of which with a stereo depth
+  int inliers = 0;               ///< map points matched after local-map tracking
+  bool keyframe = false;         ///< a keyframe was made from this frame
+  int segment = 0;               ///< map segment the frame belongs to
+};
+
+/// A closed loop.
+struct LoopClosure {
+  int keyframe = -1;        ///< the newer keyframe
+  int loop_keyframe = -1;   ///< the older keyframe it re-observes
+  int inliers = 0;          ///< stereo SE(3) RANSAC inliers after refinement
+  bool by_prior = false;    ///< candidate came from prior proximity (else appearance)
+};
+
+/// Counters and timings of a run.
+struct SlamStatistics {
+  int frames = 0, tracked = 0, relocalised = 0, prior_only = 0;
+  int keyframes = 0, map_points = 0, segments = 1;
+  int loop_candidates = 0, loops_rejected = 0, loops_closed = 0;
+  int vocabulary_words = 0;
+  double track_s = 0;          ///< wall time in Track (front end + tracking + local mapping)
+  double local_mapping_s = 0;  ///< of which local mapping (culling, fusion, local BA)
+  double finish_s = 0;         ///< wall time of Finish (loop closing + global BA)
+  /// "95 frames (95 tracked, 0 relocalised, 0 prior-only), 31 keyframes, 9120 points, 0 loops".
+  std::string BriefReport() const;
+};
+
+/// Everything a run produced.
+struct SlamResult {
+  Trajectory frames;          ///< camera-to-world per frame (after loop closing and global BA)
+  Trajectory keyframes;       ///< camera-to-world per keyframe
+  std::vector<FrameStatus> status;  ///< per frame
+  std::vector<int> frame_segment;   ///< per frame
+  SlamMap map;                ///< keyframes, points, observations (enough for a COLMAP export)
+  std::vector<LoopClosure> loops;
+  SlamStatistics stats;
+};
+
+/// The SLAM system. Feed frames in time order with Track, then call Finish once.
+class StereoSlam {
+ public:
+  /// rectified: a rectified calibration (StereoRectifier::rectified() or a rectified layout's).
+  /// Throws std::invalid_argument when it is not rectified or has no baseline, OptionError for bad options.
+  StereoSlam(const StereoCalibration& rectified, const SlamOptions& options);
+  ~StereoSlam();
+  StereoSlam(const StereoSlam&) = delete;
+  StereoSlam& operator=(const StereoSlam&) = delete;
+
+  /// Tracks one rectified 8-bit grey pair (sizes equal to the calibration's). Never throws on a
+  /// tracking failure: the frame is then relocalised or predicted (prior-only). Throws
+  /// std::invalid_argument for images of the wrong size/type or times that do not increase.
+  FrameResult Track(int64_t t_ns, const cv::Mat& left, const cv::Mat& right, const std::optional<PosePrior>& prior);
+
+  /// Loop closing, global BA; returns trajectories, map and statistics. Call once.
+  SlamResult Finish();
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace rs
