@@ -59,6 +59,7 @@ int HardwareThreads(int threads) { return threads > 0 ? threads : int(std::max(1
 Command BenchCommand() {
   return {"bench", "Benchmark the algorithms: disparity (ours vs OpenCV SGBM), simulator rendering, damage detection",
           [](CLI::App& app, const StageRegistry&) -> std::function<int()> {
+            app.option_defaults()->always_capture_default();
             app.require_subcommand(1);
             struct DispArgs {
               std::vector<std::string> pairs;

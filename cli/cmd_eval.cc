@@ -360,6 +360,7 @@ int RunEvalTrajectory(const TrajectoryArgs& a) {
 Command EvalCommand() {
   return {"eval", "Evaluate results against ground truth: disparity maps, damage labels, trajectories",
           [](CLI::App& app, const StageRegistry&) -> std::function<int()> {
+            app.option_defaults()->always_capture_default();
             app.require_subcommand(1);
             auto d = std::make_shared<DisparityArgs>();
             CLI::App* disp = app.add_subcommand("disparity", "KITTI 16-bit disparity PNGs vs truth: bad-1/2/3, D1, EPE");

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <ctime>
+#include <functional>
 #include <map>
 #include <memory>
 #include <sstream>
@@ -57,6 +58,7 @@ std::string Histogram(const std::map<K, int>& counts, const std::function<std::s
 Command LogCommand() {
   return {"log", "Show what roadsurvey reads from a flight log (format, time base, fixes, events); export as CSV",
           [](CLI::App& app, const StageRegistry&) -> std::function<int()> {
+            app.option_defaults()->always_capture_default();
             struct Args {
               std::string path, format = "auto", csv;
             };

@@ -38,6 +38,7 @@ cv::Mat ReliefPicture(const cv::Mat& transformed, const ReliefScale& scale, doub
 Command SegmentCommand() {
   return {"segment", "Segment road damage in a transformed disparity image -> 16-bit instance labels",
           [](CLI::App& app, const StageRegistry&) -> std::function<int()> {
+            app.option_defaults()->always_capture_default();
             struct Args {
               std::string input, output, image, overlay, json;
               bool no_cracks = false;
@@ -51,8 +52,8 @@ Command SegmentCommand() {
                 ->required();
             app.add_option("-o,--output", a->output, "instance labels, 16-bit PNG (0 = none, 1..n = instance id)")
                 ->required();
-            app.add_option("--image", a->image, "left image (same size): enables crack detection and the overlay picture");
-            app.add_option("--overlay", a->overlay, "picture with every instance outlined and labelled");
+            app.add_option("--image", a->image, "left image (same size): enables crack detection; the overlay is drawn on it");
+            app.add_option("--overlay", a->overlay, "picture with every instance outlined and labelled (on --image, else on the relief in grey)");
             app.add_option("--json", a->json, "detections JSON (roadsurvey.damage_detections/1)");
             app.add_flag("--no-cracks", a->no_cracks, "skip crack detection in --image");
             app.add_option("--min-area-px", a->min_area_px, "smallest damage kept, px")->check(CLI::PositiveNumber);

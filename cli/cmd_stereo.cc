@@ -77,6 +77,7 @@ void WriteTransformed(const std::string& path, const cv::Mat& transformed) {
 Command StereoCommand() {
   return {"stereo", "Dense disparity of one rectified stereo pair (GPT-SGM or SGM) -> KITTI 16-bit PNG",
           [](CLI::App& app, const StageRegistry&) -> std::function<int()> {
+            app.option_defaults()->always_capture_default();
             struct Args {
               std::string left, right, output, method = "gpt-sgm", transformed, preview, calibration, cloud;
               int min_disparity = 0, num_disparities = 128, gpt_range = 32, paths = 4, threads = 0;

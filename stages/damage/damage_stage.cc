@@ -98,8 +98,8 @@ void DamageStage::Run(StageContext& ctx, const DamageStageOptions& o) const {
                                      {"road", {{"camera_height_m", result.surface.camera_height_m},
                                                {"residual_sigma_m", result.surface.residual_sigma_m},
                                                {"inliers", result.surface.inliers},
-                                               {"obstacle_points", result.surface.obstacle_points}}},
-                                     {"damages", DetectionsToJson(result.instances)}};
+                                               {"obstacle_points", result.surface.obstacle_points}}}};
+        detections.update(DetectionsToJson(result.instances));  // "schema" + "detections"
         WriteJsonAtomic(tmp / "detections.json", detections);
         if (o.write_overlay)
           cv::imwrite((tmp / "overlay.png").string(), RenderOverlay(left, result.labels, result.instances));

@@ -27,6 +27,35 @@ double PathLength(const PosePairs& pairs) {
   return len;
 }
 
+// Level-0 reprojection residuals of every live map point in every keyframe observing it.
+void MeasureResiduals(const StereoCalibration& calib, SlamRunReport* rep) {
+  const double fx = calib.left.fx, fy = calib.left.fy, cx = calib.left.cx, cy = calib.left.cy, b = calib.BaselineM();
+  std::vector<double> uv, ur;
+  const SlamMap& m = rep->result.map;
+  for (const MapPoint& p : m.points) {
+    if (p.bad) continue;
+    for (const auto& [k, f] : p.observations) {
+      const Keyframe& kf = m.keyframes[k];
+      const cv::KeyPoint& kp = kf.features.keypoints[f];
+      if (kf.bad || kp.octave != 0) continue;
+      const Eigen::Vector3d pc = kf.T_cam_world * p.p_world;
+      if (pc.z() <= 0) continue;
+      const double u = fx * pc.x() / pc.z() + cx, v = fy * pc.y() / pc.z() + cy;
+      uv.push_back(std::hypot(kp.pt.x - u, kp.pt.y - v));
+      if (kf.features.u_right[f] >= 0) ur.push_back(std::abs(kf.features.u_right[f] - (u - fx * b / pc.z())));
+    }
+  }
+  auto quantile = [](std::vector<double> v, double q) {
+    if (v.empty()) return 0.0;
+    const size_t i = std::min(v.size() - 1, static_cast<size_t>(q * v.size()));
+    std::nth_element(v.begin(), v.begin() + i, v.end());
+    return v[i];
+  };
+  rep->reproj_median_px = quantile(uv, 0.5);
+  rep->reproj_p90_px = quantile(uv, 0.9);
+  rep->reproj_right_median_px = quantile(ur, 0.5);
+}
+
 // Runs SLAM over `source` frames; `rectify` (may be null) maps raw pairs to rectified ones.
 SlamRunReport RunSource(const StereoSource& source, const StereoCalibration& rectified, const SlamOptions& options,
                         const StereoRectifier* rectifier, int max_frames,
@@ -60,35 +89,6 @@ SlamRunReport RunSource(const StereoSource& source, const StereoCalibration& rec
   rep.cpu_s += CpuSeconds() - c0;
   MeasureResiduals(rectified, &rep);
   return rep;
-}
-
-// Level-0 reprojection residuals of every live map point in every keyframe observing it.
-void MeasureResiduals(const StereoCalibration& calib, SlamRunReport* rep) {
-  const double fx = calib.left.fx, fy = calib.left.fy, cx = calib.left.cx, cy = calib.left.cy, b = calib.BaselineM();
-  std::vector<double> uv, ur;
-  const SlamMap& m = rep->result.map;
-  for (const MapPoint& p : m.points) {
-    if (p.bad) continue;
-    for (const auto& [k, f] : p.observations) {
-      const Keyframe& kf = m.keyframes[k];
-      const cv::KeyPoint& kp = kf.features.keypoints[f];
-      if (kf.bad || kp.octave != 0) continue;
-      const Eigen::Vector3d pc = kf.T_cam_world * p.p_world;
-      if (pc.z() <= 0) continue;
-      const double u = fx * pc.x() / pc.z() + cx, v = fy * pc.y() / pc.z() + cy;
-      uv.push_back(std::hypot(kp.pt.x - u, kp.pt.y - v));
-      if (kf.features.u_right[f] >= 0) ur.push_back(std::abs(kf.features.u_right[f] - (u - fx * b / pc.z())));
-    }
-  }
-  auto quantile = [](std::vector<double> v, double q) {
-    if (v.empty()) return 0.0;
-    const size_t i = std::min(v.size() - 1, static_cast<size_t>(q * v.size()));
-    std::nth_element(v.begin(), v.begin() + i, v.end());
-    return v[i];
-  };
-  rep->reproj_median_px = quantile(uv, 0.5);
-  rep->reproj_p90_px = quantile(uv, 0.9);
-  rep->reproj_right_median_px = quantile(ur, 0.5);
 }
 
 }  // namespace

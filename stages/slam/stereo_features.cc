@@ -84,6 +84,17 @@ void ExtractOrb(const cv::Mat& gray, const SlamOptions& options, std::vector<cv:
   std::vector<cv::KeyPoint> all;
   cv::Mat all_desc;
   orb->detectAndCompute(gray, cv::noArray(), all, all_desc);
+  // cv::ORB maps a level-k corner to level 0 as x_k * scale_k, but its pyramid is resized with the
+  // pixel-centre convention, x_0 = (x_k + 0.5) * W_0 / W_k - 0.5: without this the coordinates of
+  // coarse-level corners are 0.5 (scale - 1) px too small (1.3 px at level 7), which biases the stereo
+  // disparity (the right position is refined on level 0) and with it every depth.
+  for (cv::KeyPoint& kp : all) {
+    if (kp.octave <= 0) continue;
+    const double s = std::pow(options.scale_factor, kp.octave);
+    const double wk = std::round(gray.cols / s), hk = std::round(gray.rows / s);
+    kp.pt.x = static_cast<float>((kp.pt.x / s + 0.5) * gray.cols / wk - 0.5);
+    kp.pt.y = static_cast<float>((kp.pt.y / s + 0.5) * gray.rows / hk - 0.5);
+  }
   const int cell = options.grid_cell_px;
   const int cols = std::max(1, (gray.cols + cell - 1) / cell), rows = std::max(1, (gray.rows + cell - 1) / cell);
   std::vector<int> order(all.size());
@@ -197,10 +208,13 @@ StereoFeatures ExtractStereoFeatures(const cv::Mat& left, const cv::Mat& right, 
     if (denom <= 0) continue;
     const double delta = (s_m - s_p) / denom;
     if (delta < -1 || delta > 1) continue;
+    // The SAD window was centred on the rounded left position xl: the disparity is xl - ur, and the
+    // right position that goes with the keypoint's sub-pixel ul is shifted alike (u_left - u_right
+    // must equal the disparity the depth came from).
     const double ur = xr0 + best_off + delta;
-    const double disparity = xl - ur;  // the SAD window was centred on the rounded left position
+    const double disparity = xl - ur;
     if (disparity <= 0.05 || disparity >= max_disparity) continue;
-    f.u_right[i] = static_cast<float>(ur);
+    f.u_right[i] = static_cast<float>(ur + (ul - xl));
     f.depth_m[i] = static_cast<float>(camera.bf() / disparity);
     sad_of.emplace_back(best_sad, static_cast<int>(i));
   }

@@ -557,15 +557,25 @@ struct StereoSlam::Impl {
     } else {
       UpdateLastFrame();
       // Prediction: constant velocity; without one, the prior's relative motion; else the last pose.
+      bool has_motion = true;
       if (has_velocity) {
         cur.T_cam_world = velocity * last.T_cam_world;
       } else if (prior && last.prior && prior->has_position && prior->has_attitude && last.prior->has_attitude) {
         cur.T_cam_world = (last.prior->T_world_cam.inverse() * prior->T_world_cam).inverse() * last.T_cam_world;
       } else {
         cur.T_cam_world = last.T_cam_world;
+        has_motion = false;
       }
       const Eigen::Isometry3d predicted = cur.T_cam_world;
-      bool ok = TrackWithMotionModel(&cur);
+      // Without a motion prediction a projection search would lock onto wrong neighbours of a
+      // fast-moving scene (KITTI moves 1.2 m per frame): match descriptors against the reference
+      // keyframe first.
+      bool ok = false;
+      if (!has_motion) {
+        ok = TrackReferenceKeyframe(&cur);
+        if (!ok) cur.T_cam_world = predicted;
+      }
+      if (!ok) ok = TrackWithMotionModel(&cur);
       if (!ok) {
         cur.T_cam_world = predicted;
         ok = TrackReferenceKeyframe(&cur);

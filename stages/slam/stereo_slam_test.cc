@@ -49,16 +49,23 @@ TEST(StereoSlam, WrongImageSize) {
   EXPECT_THROW(slam.Track(0, cv::Mat(10, 10, CV_8UC1), cv::Mat(10, 10, CV_8UC1), std::nullopt), std::invalid_argument);
 }
 
-// KITTI odometry 06, frames 0-50 (60 m). Target (ORB-SLAM2 here): 0.046 m; see docs/stages/slam.md
-// for the gap. Tolerance = what this implementation reaches (0.22 m) plus margin.
+// KITTI odometry 06, frames 0-50 (60 m). Target (ORB-SLAM2 here): 0.046 m, not reached: this
+// implementation reaches 0.26 m (about 1.3 % too long and 0.8 deg of heading drift; see
+// docs/stages/slam.md). Every frame must be tracked (frame 1 has no velocity yet: reference-keyframe
+// matching); tolerance = what is reached plus margin.
 TEST(StereoSlam, KittiClip) {
   const auto folder = DataDir() / "kitti_vo_clips/KITTI_sequence_1";
   if (!std::filesystem::exists(folder)) GTEST_SKIP() << "no " << folder;
   const SlamRunReport r = RunKittiOdometry(folder, SlamOptions());
   EXPECT_EQ(r.result.stats.frames, 51);
-  EXPECT_GE(r.result.stats.tracked + r.result.stats.relocalised, 50);
+  EXPECT_EQ(r.result.stats.tracked, 51);
   EXPECT_NEAR(r.path_length_m, 59.9, 0.2);
   EXPECT_LT(r.ate.translation_m.rmse, 0.30);
+  // Keypoints (level-0 pixel-centre convention for every pyramid level), stereo depths and poses
+  // agree: the map's own level-0 reprojection residuals stay sub-pixel. (Residuals against KITTI's
+  // ground-truth poses are ~1.5 px: the GPS/INS truth is not pixel-accurate, so they are no test.)
+  EXPECT_LT(r.reproj_median_px, 0.5);
+  EXPECT_LT(r.reproj_right_median_px, 0.3);
 }
 
 // EuRoC V1_01 micro: raw pairs rectified; truth through T_BS. The clip covers a nearly static start
