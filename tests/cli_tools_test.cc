@@ -2,6 +2,7 @@
 // `roadsurvey` binary on small inputs made here with known truth, and on the public data
 // under ROADSURVEY_DATA when present.
 #include <gtest/gtest.h>
+#include "tests/support/test_data.h"
 
 #include <sys/wait.h>
 #include <unistd.h>
@@ -49,8 +50,7 @@ RunResult Roadsurvey(const std::string& args) {
 }
 
 fs::path DataRoot() {
-  const char* env = std::getenv("ROADSURVEY_DATA");
-  return env ? fs::path(env) : fs::path(ROADSURVEY_DATA_DEFAULT);
+  return rs::test::DataRoot();
 }
 
 /// A fresh folder per test, removed afterwards.

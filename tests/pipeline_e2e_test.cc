@@ -198,6 +198,35 @@ TEST_F(PipelineE2E, CorruptFrameIsSkippedAndCounted) {
   EXPECT_TRUE(fs::exists(copy / "out" / "disparity" / "000006"));
 }
 
+TEST_F(PipelineE2E, ValidateListsEveryProblemAtOnce) {
+  const fs::path copy = root_ / "broken";
+  fs::remove_all(copy);
+  fs::copy(root_ / "survey", copy, fs::copy_options::recursive);
+  const std::string bytes = Slurp(copy / "left" / "000003.png");
+  std::ofstream(copy / "left" / "000003.png", std::ios::binary | std::ios::trunc) << bytes.substr(0, 100);
+  fs::remove(copy / "right" / "000007.png");
+  auto doc = ReadJson(copy / "survey.json");
+  doc["inputs"]["flight_log"]["path"] = "no_such_log.ulg";
+  std::ofstream(copy / "survey.json") << doc.dump(2);
+
+  const auto r = RunProgram("validate " + (copy / "survey.json").string());
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  for (const char* named : {"000003.png", "000007.png", "no_such_log.ulg"})
+    EXPECT_NE(r.output.find(named), std::string::npos) << named << " not reported:\n" << r.output;
+  EXPECT_NE(r.output.find("error(s)"), std::string::npos) << r.output;
+}
+
+TEST_F(PipelineE2E, StatusReportsLastRun) {
+  const fs::path out = Output("status");
+  ASSERT_EQ(Run(out).exit_code, 0);
+  const auto r = RunProgram("status " + out.string());
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  for (const char* stage : {"ingest", "disparity", "damage", "slam"})
+    EXPECT_NE(r.output.find(stage), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("succeeded"), std::string::npos) << r.output;
+  EXPECT_EQ(RunProgram("status " + (root_ / "survey").string()).exit_code, 2) << "not an output folder";
+}
+
 TEST_F(PipelineE2E, ExitCodes) {
   EXPECT_EQ(RunProgram("").exit_code, 2) << "no subcommand";
   EXPECT_EQ(RunProgram("frobnicate").exit_code, 2);

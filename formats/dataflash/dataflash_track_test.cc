@@ -1,4 +1,5 @@
 #include "formats/dataflash/dataflash_track.h"
+#include "tests/support/test_data.h"
 
 #include <cctype>
 #include <cmath>
@@ -21,8 +22,7 @@ using dataflash::testing::DataflashBuilder;
 using dataflash::testing::Payload;
 
 std::filesystem::path DataDir() {
-  const char* env = std::getenv("ROADSURVEY_DATA");
-  return std::filesystem::path(env && *env ? env : ROADSURVEY_DATA_DEFAULT) / "ardupilot_dataflash";
+  return rs::test::DataRoot() / "ardupilot_dataflash";
 }
 
 double DistanceM(const GnssFix& a, const GnssFix& b) {

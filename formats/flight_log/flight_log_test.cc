@@ -1,4 +1,5 @@
 #include "formats/flight_log/flight_log.h"
+#include "tests/support/test_data.h"
 
 #include <gtest/gtest.h>
 
@@ -12,8 +13,7 @@ namespace {
 namespace fs = std::filesystem;
 
 fs::path DataDir() {
-  const char* env = std::getenv("ROADSURVEY_DATA");
-  return env ? fs::path(env) : fs::path(ROADSURVEY_DATA_DEFAULT);
+  return rs::test::DataRoot();
 }
 
 // One real sample per format: detection must name the right reader and the read must give fixes.

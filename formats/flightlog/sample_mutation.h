@@ -4,6 +4,7 @@
 // exception type.
 
 #include <gtest/gtest.h>
+#include "tests/support/test_data.h"
 
 #include <cstdlib>
 #include <filesystem>
@@ -20,8 +21,7 @@ namespace rs::testing {
 
 /// The test data root (ROADSURVEY_DATA, else the build-time default).
 inline std::filesystem::path DataRoot() {
-  const char* env = std::getenv("ROADSURVEY_DATA");
-  return env && *env ? std::filesystem::path(env) : std::filesystem::path(ROADSURVEY_DATA_DEFAULT);
+  return rs::test::DataRoot();
 }
 
 inline std::string Slurp(const std::filesystem::path& p, size_t max_bytes = SIZE_MAX) {

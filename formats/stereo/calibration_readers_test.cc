@@ -7,12 +7,12 @@
 #include <sstream>
 
 #include "formats/input_error.h"
-#include "formats/stereo/test_data.h"
+#include "tests/support/test_data.h"
 
 namespace rs {
 namespace {
 
-using stereo_test::DataRoot;
+using rs::test::DataRoot;
 namespace fs = std::filesystem;
 
 // Truth for the EuRoC V1_01 pair: ORB-SLAM2's own stereoRectify result, bf / fx_rect

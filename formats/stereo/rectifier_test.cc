@@ -9,13 +9,13 @@
 #include "formats/input_error.h"
 #include "formats/stereo/calibration_readers.h"
 #include "formats/stereo/image_io.h"
-#include "formats/stereo/test_data.h"
+#include "tests/support/test_data.h"
 
 namespace rs {
 namespace {
 
 namespace fs = std::filesystem;
-using stereo_test::DataRoot;
+using rs::test::DataRoot;
 
 const fs::path kEurocMav0 = "euroc_v101_micro/tests/data/MicroEurocDataset/mav0";
 

@@ -6,13 +6,13 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "formats/stereo/calibration_yaml.h"
-#include "formats/stereo/test_data.h"
+#include "tests/support/test_data.h"
 
 namespace rs {
 namespace {
 
 namespace fs = std::filesystem;
-using stereo_test::DataRoot;
+using rs::test::DataRoot;
 
 bool HasProblem(const ProblemList& p, const std::string& where, const std::string& needle) {
   for (const auto& i : p.items())

@@ -1,4 +1,5 @@
 #include "formats/ulog/ulog_file.h"
+#include "tests/support/test_data.h"
 
 #include <cstdlib>
 #include <fstream>
@@ -248,8 +249,7 @@ TEST(UlogFile, AppendedData) {
 // Real samples: truncated and bit-flipped copies give an error with an offset
 // (strict) or counted skips (recover), never a crash.
 std::string SampleBytes(const char* name) {
-  const char* env = std::getenv("ROADSURVEY_DATA");
-  const auto p = std::filesystem::path(env && *env ? env : ROADSURVEY_DATA_DEFAULT) / "px4_ulog" / "test" / name;
+  const auto p = rs::test::DataRoot() / "px4_ulog" / "test" / name;
   std::ifstream in(p, std::ios::binary);
   if (!in) return {};
   return std::string(std::istreambuf_iterator<char>(in), {});

@@ -3,6 +3,7 @@
 // here and compared with what our reader decodes.
 
 #include <cstdio>
+#include "tests/support/test_data.h"
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -19,8 +20,7 @@ namespace rs::ulog {
 namespace {
 
 std::filesystem::path SampleDir() {
-  const char* env = std::getenv("ROADSURVEY_DATA");
-  return std::filesystem::path(env && *env ? env : ROADSURVEY_DATA_DEFAULT) / "px4_ulog" / "test";
+  return rs::test::DataRoot() / "px4_ulog" / "test";
 }
 
 std::vector<std::string> ReadLines(const std::filesystem::path& p) {

@@ -1,4 +1,5 @@
 #include "formats/ulog/ulog_track.h"
+#include "tests/support/test_data.h"
 
 #include <cmath>
 #include <cstdlib>
@@ -15,8 +16,7 @@ using ulog::testing::Bytes;
 using ulog::testing::UlogBuilder;
 
 std::filesystem::path Sample(const char* name) {
-  const char* env = std::getenv("ROADSURVEY_DATA");
-  return std::filesystem::path(env && *env ? env : ROADSURVEY_DATA_DEFAULT) / "px4_ulog" / "test" / name;
+  return rs::test::DataRoot() / "px4_ulog" / "test" / name;
 }
 
 double DistanceM(const GnssFix& a, const GnssFix& b) {

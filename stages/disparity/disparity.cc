@@ -4,10 +4,10 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
-#include <opencv2/calib3d.hpp>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -87,7 +87,7 @@ void FilterSpeckles(cv::Mat* disparity, cv::Mat* valid, int max_size, double max
   cv::Mat& labels = tls_labels;
   fixed.create(H, W, CV_16S);
   labels.create(H, W, CV_32S);
-  const int nstrips = std::clamp(H / 64, 1, 16);
+  const int nstrips = std::clamp(H / 32, 1, 32);  // enough strips to balance 2+ threads
   std::vector<int> strip_row(nstrips + 1);
   for (int s = 0; s <= nstrips; ++s) strip_row[s] = static_cast<int>(static_cast<int64_t>(s) * H / nstrips);
   std::vector<std::vector<int>> strip_sizes(nstrips);  // pixels per strip-local label
@@ -106,38 +106,44 @@ void FilterSpeckles(cv::Mat* disparity, cv::Mat* valid, int max_size, double max
         l[u] = -1;
       }
     }
-    std::vector<int>& sizes = strip_sizes[s];
+    // Locals, not captures: the label stores would otherwise force reloads through the closure.
+    int16_t* const f0 = F;
+    int* const l0 = Lb;
+    const ptrdiff_t fs = fstep, ls = lstep;
+    const int width = W, diff = max_diff;
+    std::vector<int> sizes;
     struct Pixel {
       int v, u;
     };
     std::vector<Pixel> stack;
+    stack.reserve(4096);
     for (int v = v0; v < v1; ++v) {
-      const int16_t* frow = F + v * fstep;
-      int* lrow = Lb + v * lstep;
-      for (int u = 0; u < W; ++u) {
-        if (frow[u] == kInvalid || lrow[u] >= 0) continue;
+      for (int u = 0; u < width; ++u) {
+        if (f0[v * fs + u] == kInvalid || l0[v * ls + u] >= 0) continue;
         const int label = static_cast<int>(sizes.size());
         int count = 0;
-        lrow[u] = label;
+        l0[v * ls + u] = label;
         stack.push_back({v, u});
         while (!stack.empty()) {
           const Pixel p = stack.back();
           stack.pop_back();
           ++count;
-          const int16_t* fr = F + p.v * fstep;
-          int* lr = Lb + p.v * lstep;
-          const int fp = fr[p.u];
-          auto visit = [&](const int16_t* f, int* l, int qv, int qu) {
-            if (l[qu] < 0 && f[qu] != kInvalid && std::abs(fp - f[qu]) <= max_diff) l[qu] = label, stack.push_back({qv, qu});
-          };
-          if (p.v + 1 < v1) visit(fr + fstep, lr + lstep, p.v + 1, p.u);
-          if (p.v > v0) visit(fr - fstep, lr - lstep, p.v - 1, p.u);
-          if (p.u + 1 < W) visit(fr, lr, p.v, p.u + 1);
-          if (p.u > 0) visit(fr, lr, p.v, p.u - 1);
+          const int16_t* fr = f0 + p.v * fs + p.u;
+          int* lr = l0 + p.v * ls + p.u;
+          const int fp = *fr;
+          if (p.v + 1 < v1 && lr[ls] < 0 && fr[fs] != kInvalid && std::abs(fp - fr[fs]) <= diff)
+            lr[ls] = label, stack.push_back({p.v + 1, p.u});
+          if (p.v > v0 && lr[-ls] < 0 && fr[-fs] != kInvalid && std::abs(fp - fr[-fs]) <= diff)
+            lr[-ls] = label, stack.push_back({p.v - 1, p.u});
+          if (p.u + 1 < width && lr[1] < 0 && fr[1] != kInvalid && std::abs(fp - fr[1]) <= diff)
+            lr[1] = label, stack.push_back({p.v, p.u + 1});
+          if (p.u > 0 && lr[-1] < 0 && fr[-1] != kInvalid && std::abs(fp - fr[-1]) <= diff)
+            lr[-1] = label, stack.push_back({p.v, p.u - 1});
         }
         sizes.push_back(count);
       }
     }
+    strip_sizes[s] = std::move(sizes);
   });
   // Global label = strip base + local label; union-find over labels joins parts across strips.
   std::vector<int> base(nstrips + 1, 0);
@@ -200,44 +206,64 @@ void MedianValid3x3(cv::Mat* disparity, const cv::Mat& valid) {
   cv::Mat& src = tls_src;
   disparity->copyTo(src);
   const int W = src.cols, H = src.rows;
+  using vi = int32_t __attribute__((vector_size(4 * kFloats)));
+  using vb = uint8_t __attribute__((vector_size(kFloats)));
+  constexpr float kInf = std::numeric_limits<float>::infinity();
   tbb::parallel_for(tbb::blocked_range<int>(0, H, 16), [&](const tbb::blocked_range<int>& r) {
     float vals[9];
-    std::vector<uint8_t> col(W);  // all three rows valid in this column
-    alignas(64) float med[kFloats];
+    const std::vector<uint8_t> no_valid(W, 0);  // the row beyond the image border
+    const std::vector<float> no_value(W, 0.0f);
     for (int v = r.begin(); v < r.end(); ++v) {
-      const uint8_t* m = valid.ptr<uint8_t>(v);
+      const uint8_t* mrow[3] = {v > 0 ? valid.ptr<uint8_t>(v - 1) : no_valid.data(), valid.ptr<uint8_t>(v),
+                                v + 1 < H ? valid.ptr<uint8_t>(v + 1) : no_valid.data()};
+      const float* srow[3] = {v > 0 ? src.ptr<float>(v - 1) : no_value.data(), src.ptr<float>(v),
+                              v + 1 < H ? src.ptr<float>(v + 1) : no_value.data()};
+      const uint8_t* m = mrow[1];
       float* dst = disparity->ptr<float>(v);
-      // Pixel u with all 9 neighbours valid (the common case): the vector network.
-      auto general = [&](int u) {
+      auto general = [&](int u) {  // scalar: image borders and the row tail
         int n = 0;
-        for (int y = std::max(0, v - 1); y <= std::min(H - 1, v + 1); ++y) {
-          const uint8_t* my = valid.ptr<uint8_t>(y);
-          const float* sy = src.ptr<float>(y);
+        for (int y = 0; y < 3; ++y)
           for (int x = std::max(0, u - 1); x <= std::min(W - 1, u + 1); ++x)
-            if (my[x]) vals[n++] = sy[x];
-        }
-        std::nth_element(vals, vals + (n - 1) / 2, vals + n);
+            if (mrow[y][x]) vals[n++] = srow[y][x];
+        for (int a = 1; a < n; ++a)  // insertion sort of at most 9 values
+          for (int b = a; b > 0 && vals[b] < vals[b - 1]; --b) std::swap(vals[b], vals[b - 1]);
         dst[u] = vals[(n - 1) / 2];
       };
       int u = 0;
-      if (v > 0 && v < H - 1) {
-        const uint8_t *m0 = valid.ptr<uint8_t>(v - 1), *m2 = valid.ptr<uint8_t>(v + 1);
-        for (int x = 0; x < W; ++x) col[x] = m0[x] & m[x] & m2[x];
-        const float* rows[3] = {src.ptr<float>(v - 1), src.ptr<float>(v), src.ptr<float>(v + 1)};
-        if (m[0]) general(0);
-        for (u = 1; u + kFloats <= W - 1; u += kFloats) {
-          vf p[9];
-          for (int y = 0; y < 3; ++y)
-            for (int dx = 0; dx < 3; ++dx) std::memcpy(&p[3 * y + dx], rows[y] + u - 1 + dx, sizeof(vf));
-          const vf md = Median9(p);
-          std::memcpy(med, &md, sizeof(md));
-          for (int i = 0; i < kFloats; ++i) {
-            const int x = u + i;
-            if (!m[x]) continue;
-            if (col[x - 1] & col[x] & col[x + 1]) dst[x] = med[i];
-            else general(x);
+      if (m[0]) general(0);
+      // 16 pixels at once. The lower median of the n valid neighbours is the plain median of 9
+      // once the 9 - n invalid ones are replaced by k = 4 - (n - 1) / 2 times -inf and the rest
+      // +inf (k values sort below the n valid ones, and 4 - k = (n - 1) / 2).
+      for (u = 1; u + kFloats <= W - 1; u += kFloats) {
+        vf p[9];
+        vb b[9], any_invalid = vb{};
+        for (int y = 0; y < 3; ++y)
+          for (int dx = 0; dx < 3; ++dx) {
+            std::memcpy(&p[3 * y + dx], srow[y] + u - 1 + dx, sizeof(vf));
+            std::memcpy(&b[3 * y + dx], mrow[y] + u - 1 + dx, sizeof(vb));
+            any_invalid |= reinterpret_cast<vb>(b[3 * y + dx] == 0);
           }
+        uint64_t flags[2];
+        std::memcpy(flags, &any_invalid, sizeof(flags));
+        if ((flags[0] | flags[1]) == 0) {  // all 9 neighbours of all 16 pixels valid: the common case
+          const vf md = Median9(p);
+          std::memcpy(dst + u, &md, sizeof(md));
+          continue;
         }
+        vi ok[9], n = vi{};
+        for (int q = 0; q < 9; ++q) ok[q] = __builtin_convertvector(b[q], vi) != 0, n -= ok[q];
+        const vi k = 4 - (n - 1) / 2;
+        vi low = vi{};  // invalid neighbours replaced so far
+        for (int q = 0; q < 9; ++q) {
+          const vf pad = low < k ? vf{} - kInf : vf{} + kInf;
+          p[q] = ok[q] ? p[q] : pad;
+          low += ok[q] ? 0 : 1;
+        }
+        const vf md = Median9(p);
+        vf old;
+        std::memcpy(&old, dst + u, sizeof(old));
+        const vf out = ok[4] ? md : old;  // ok[4]: the centre pixel
+        std::memcpy(dst + u, &out, sizeof(out));
       }
       for (; u < W; ++u)
         if (m[u]) general(u);
@@ -304,7 +330,8 @@ DisparityResult ComputeDisparity(const cv::Mat& left, const cv::Mat& right, cons
   t0 = std::chrono::steady_clock::now();
   res.valid = sgm.valid;
   const bool warped = gpt && P.gpt_subpixel_warp;
-  res.disparity = warped ? cv::Mat(H, W, CV_32F) : sgm.disparity;
+  res.disparity = sgm.disparity;  // after a warp, converted in place below (no fresh 4 MB per frame)
+  if (gpt) res.transformed.create(H, W, CV_32F);  // the road model is known (reliable): fused below
   // One parallel pass: true disparity (d = l + kappa after a sub-pixel warp), a match outside
   // the target image dropped (after a warp the replicated border can still "match"; plain SGM
   // already rejects them), and per-row counts for the fall-back rule and the density.
@@ -313,17 +340,17 @@ DisparityResult ComputeDisparity(const cv::Mat& left, const cv::Mat& right, cons
     for (int v = r.begin(); v < r.end(); ++v) {
       float* d = res.disparity.ptr<float>(v);
       uint8_t* m = res.valid.ptr<uint8_t>(v);
-      if (warped) {
-        const float* l = sgm.disparity.ptr<float>(v);
-        for (int u = 0; u < W; ++u) d[u] = m[u] ? static_cast<float>(l[u] + kappa[v]) : 0.0f;
-      }
+      if (warped)
+        for (int u = 0; u < W; ++u) d[u] = m[u] ? static_cast<float>(d[u] + kappa[v]) : 0.0f;
       int64_t n_valid = 0;
       for (int u = 0; u < W; ++u) {
         if (m[u] && (u - d[u] < 0 || u - d[u] > W - 1)) m[u] = 0, d[u] = 0.0f;
         n_valid += m[u] != 0;
       }
       row_valid[v] = n_valid;
-      if (!gpt || P.gpt_min_valid_fraction <= 0) continue;
+      if (!gpt) continue;
+      TransformedDisparityRow(d, m, W, v, res.road, P.gpt_delta_px, res.transformed.ptr<float>(v));
+      if (P.gpt_min_valid_fraction <= 0) continue;
       // Visible: the road point u - road(u, v) lies inside the right image.
       const double x_min = res.road.At(0, v), slope = res.road.At(1, v) - x_min;
       int64_t vis = 0, vis_valid = 0;
@@ -349,7 +376,9 @@ DisparityResult ComputeDisparity(const cv::Mat& left, const cv::Mat& right, cons
     res.road = FitFromDense(res.disparity, res.valid, P.road, prior);
     res.timings.road_model_ms += MsSince(tr);
   }
-  if (res.road.reliable) {
+  if (gpt) {
+    // transformed: filled in the pass above
+  } else if (res.road.reliable) {
     res.transformed = TransformedDisparity(res.disparity, res.valid, res.road, P.gpt_delta_px);
   } else {
     res.transformed = cv::Mat::zeros(H, W, CV_32F);

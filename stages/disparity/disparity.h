@@ -62,8 +62,8 @@ struct DisparityTimings {
   double road_model_ms = 0;   ///< sparse matching + robust fit (GPT) or dense fit (SGM)
   double warp_ms = 0;         ///< kappa + target warp
   double census_ms = 0;       ///< both census transforms
-  double aggregation_ms = 0;  ///< cost + path aggregation
-  double wta_ms = 0;          ///< winner-takes-all, uniqueness, sub-pixel, left-right check
+  double aggregation_ms = 0;  ///< cost + path aggregation (+ winner-takes-all with 4 paths: fused into the last path)
+  double wta_ms = 0;          ///< left-right check (+ winner-takes-all, uniqueness, sub-pixel with 8 paths)
   double postprocess_ms = 0;  ///< speckle filter + median
   double transform_ms = 0;    ///< true and transformed disparity maps
   double total_ms = 0;        ///< whole ComputeDisparity call

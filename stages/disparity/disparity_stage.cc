@@ -25,7 +25,7 @@ const OptionTable<RoadFitOptions>& RoadFitTable() {
           .Add("max_disparity_px", &RoadFitOptions::max_disparity_px, "matches need at most this disparity", "px")
           .Add("ratio", &RoadFitOptions::ratio, "Lowe ratio test on Hamming distances").Above(0).Max(1)
           .Add("max_hamming", &RoadFitOptions::max_hamming, "descriptor distance ceiling (of 256 bits)").Min(0).Max(256)
-          .Add("ransac_iterations", &RoadFitOptions::ransac_iterations, "planar hypotheses drawn").Min(1)
+          .Add("ransac_iterations", &RoadFitOptions::ransac_iterations, "most planar hypotheses drawn (stops early at 99.99 % confidence)").Min(1)
           .Add("inlier_threshold_px", &RoadFitOptions::inlier_threshold_px, "|d - model| for an inlier", "px").Above(0)
           .Add("min_inliers", &RoadFitOptions::min_inliers, "fewer inliers: model unreliable, plain SGM fallback").Min(3)
           .Add("min_inlier_fraction", &RoadFitOptions::min_inlier_fraction,

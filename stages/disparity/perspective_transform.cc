@@ -51,18 +51,18 @@ cv::Mat TrueFromWarpedDisparity(const cv::Mat& l, const cv::Mat& valid, const st
   return d;
 }
 
+void TransformedDisparityRow(const float* src, const uint8_t* m, int width, int v, const RoadModel& road,
+                             double delta_px, float* dst) {
+  // road(u, v) = a + b u + c u^2 along the row (c = 0 for the planar model).
+  const double a = road.c[0] + road.c[2] * v + road.c[5] * v * v, b = road.c[1] + road.c[4] * v, c = road.c[3];
+  for (int u = 0; u < width; ++u) dst[u] = m[u] ? static_cast<float>(src[u] - (a + (b + c * u) * u) + delta_px) : 0.0f;
+}
+
 cv::Mat TransformedDisparity(const cv::Mat& d, const cv::Mat& valid, const RoadModel& road, double delta_px) {
-  cv::Mat t = cv::Mat::zeros(d.size(), CV_32F);
+  cv::Mat t(d.size(), CV_32F);
   cv::parallel_for_(cv::Range(0, d.rows), [&](const cv::Range& rows) {
-    for (int v = rows.start; v < rows.end; ++v) {
-      const float* src = d.ptr<float>(v);
-      const uint8_t* m = valid.ptr<uint8_t>(v);
-      float* dst = t.ptr<float>(v);
-      // road(u, v) = a + b u + c u^2 along the row (c = 0 for the planar model).
-      const double a = road.c[0] + road.c[2] * v + road.c[5] * v * v, b = road.c[1] + road.c[4] * v, c = road.c[3];
-      for (int u = 0; u < d.cols; ++u)
-        if (m[u]) dst[u] = static_cast<float>(src[u] - (a + (b + c * u) * u) + delta_px);
-    }
+    for (int v = rows.start; v < rows.end; ++v)
+      TransformedDisparityRow(d.ptr<float>(v), valid.ptr<uint8_t>(v), d.cols, v, road, delta_px, t.ptr<float>(v));
   });
   return t;
 }

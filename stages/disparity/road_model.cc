@@ -221,7 +221,19 @@ RoadModel FitRoadModel(const std::vector<DisparitySample>& s, int W, int H, cons
   }
   std::mt19937 rng(o.seed);
   std::uniform_int_distribution<int> pick(0, static_cast<int>(s.size()) - 1);
+  // Adaptive stop: once the best inlier share w makes an all-inlier sample near certain
+  // (1 - (1 - w^3)^n >= 99.99 %), more hypotheses cannot be expected to beat it. At least
+  // kMinIterations are drawn; the seeded sequence keeps the result deterministic.
+  constexpr int kMinIterations = 50;
+  auto needed = [&](size_t inliers) {
+    const double w = static_cast<double>(inliers) / static_cast<double>(s.size()), p3 = w * w * w;
+    if (p3 >= 1.0) return 0.0;
+    if (p3 <= 0.0) return static_cast<double>(o.ransac_iterations);
+    return std::log(1e-4) / std::log1p(-p3);
+  };
+  double required = needed(best_idx.size());
   for (int it = 0; it < o.ransac_iterations; ++it) {
+    if (it >= kMinIterations && it >= required) break;
     const int i = pick(rng), j = pick(rng), k = pick(rng);
     if (i == j || j == k || i == k) continue;
     Eigen::Matrix3d A;
@@ -231,6 +243,7 @@ RoadModel FitRoadModel(const std::vector<DisparitySample>& s, int W, int H, cons
     const double sse = inliers_of([&](double u, double v) { return c[0] + c[1] * u + c[2] * v; }, &idx);
     if (idx.size() > best_idx.size() || (idx.size() == best_idx.size() && sse < best_sse)) {
       best_idx.swap(idx), best_sse = sse, best_is_prior = false;
+      required = needed(best_idx.size());
     }
   }
   // Least squares on the inliers, twice (the inlier set settles).

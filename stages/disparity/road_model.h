@@ -48,7 +48,9 @@ struct RoadFitOptions {
   double max_disparity_px = 256;    ///< and d <= this
   double ratio = 0.8;               ///< Lowe ratio test on Hamming distances among epipolar candidates
   int max_hamming = 64;             ///< descriptor distance ceiling (of 256 bits)
-  int ransac_iterations = 400;      ///< planar hypotheses drawn
+  /// Most planar hypotheses drawn; RANSAC stops earlier (after at least 50) once the best inlier
+  /// share makes an all-inlier sample 99.99 % likely.
+  int ransac_iterations = 400;
   double inlier_threshold_px = 1.5; ///< |d - model| for an inlier
   int min_inliers = 40;             ///< fewer inliers: model marked unreliable
   /// Smaller inlier share of the matches: unreliable (the scene is not dominated by a road plane).

@@ -4,10 +4,14 @@
 // covers kLanes disparities. Padded lanes carry a large bias so they never win a minimum; the
 // bounds in SgmParams::Check keep every sum inside uint16.
 //
-// Passes: (1) per row, in parallel: cost + both horizontal paths (initialises S);
-// (2) rows top-down, columns in parallel: vertical (+ two diagonals with 8 paths);
-// (3) rows bottom-up, the opposite directions; (4) per row, in parallel: WTA, uniqueness,
-// sub-pixel, left-right check. Integer sums make the result independent of order, hence
+// Passes (4 paths, the default): (1) a TBB pipeline over pairs of rows: cost + both horizontal
+// paths in parallel (initialises S), then the downward path in row order while the rows are
+// still in cache; (2) column blocks in parallel, rows bottom-up: the upward path, whose final
+// sums go straight into winner-takes-all, uniqueness, sub-pixel and the right-view winners
+// (never stored); (3) per row, in parallel: left-right check.
+// With 8 paths: (1) without the downward path; row sweeps top-down and bottom-up with columns in
+// parallel (vertical + diagonals) complete S; winner-takes-all per row; (3) as above.
+// Integer sums and order-independent minima make the result independent of the schedule, hence
 // bit-identical to the reference.
 #include "stages/disparity/sgm.h"
 
@@ -19,7 +23,6 @@
 #include <memory>
 #include <stdexcept>
 #include <string>
-#include <type_traits>
 #include <utility>
 
 #include <opencv2/core.hpp>
@@ -66,7 +69,9 @@ inline uint16_t HMin(v16 v) {
   using m16 = uint16_t __attribute__((vector_size(2 * kLanes)));
   constexpr m16 upper = {16, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26, 27, 28, 29, 30, 31,
                          16, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26, 27, 28, 29, 30, 31};
-  const __m256i x = _mm512_castsi512_si256(reinterpret_cast<__m512i>(VMin(v, __builtin_shuffle(v, upper))));
+  const v16 folded = VMin(v, __builtin_shuffle(v, upper));
+  __m256i x;  // low half; memcpy, as _mm512_castsi512_si256 trips a spurious GCC 12 warning
+  std::memcpy(&x, &folded, sizeof(x));
   const __m128i m = _mm_min_epu16(_mm256_castsi256_si128(x), _mm256_extracti128_si256(x, 1));
   return static_cast<uint16_t>(_mm_cvtsi128_si32(_mm_minpos_epu16(m)) & 0xFFFF);
 #elif defined(__AVX2__)
@@ -194,8 +199,10 @@ struct Wta {
   int W = 0, D = 0, Dp = 0, uniqueness = 0;
   SubpixelMode subpixel = SubpixelMode::kNone;
   std::vector<uint32_t> real;  // per chunk of kLanes disparities: lanes k < D
+  uint64_t uniqueness_magic = 0;  // floor(2^40 / (100 - r)) + 1: division by 100 - r as a multiply
   Wta(const SgmParams& P, int width, int dp)
       : W(width), D(P.num_disparities), Dp(dp), uniqueness(P.uniqueness_ratio), subpixel(P.subpixel), real(dp / kLanes) {
+    uniqueness_magic = (uint64_t{1} << 40) / static_cast<uint64_t>(100 - uniqueness) + 1;
     for (int c = 0; c < dp / kLanes; ++c)
       for (int i = 0; i < kLanes; ++i)
         if (c * kLanes + i < D) real[c] |= 1u << i;
@@ -220,7 +227,9 @@ struct Wta {
     // S(k) <= thr = (smin * 100 - 1) / (100 - r) for smin > 0 (none qualifies when smin = 0).
     // Lane masks against one threshold keep this off the critical path of a second minimum.
     if (uniqueness > 0 && smin > 0) {
-      const int thr = std::min(0xFFFF, (static_cast<int>(smin) * 100 - 1) / (100 - uniqueness));
+      // (smin * 100 - 1) / (100 - r) by a multiply: exact since x * (M * d - 2^40) < 2^40 here.
+      const uint64_t x = static_cast<uint64_t>(smin) * 100 - 1;
+      const int thr = static_cast<int>(std::min<uint64_t>(0xFFFF, (x * uniqueness_magic) >> 40));
       for (int j = 0, c = 0; j < Dp; j += kLanes, ++c) {
         const int sh = b - 1 - j;  // lanes b-1..b+1 of this chunk are excluded
         const uint32_t near = sh >= 0 ? (sh < 32 ? 7u << sh : 0u) : (sh > -3 ? 7u >> -sh : 0u);
@@ -243,21 +252,17 @@ struct Wta {
 // Right-view winners argmin_k S(x + off + k, k) (smallest k on ties) of one row, packed as
 // S << 16 | k so that one unsigned minimum applies both rules. Pixels u are pushed in ascending
 // order; a sliding window of Dp entries (lane j <-> target x = u - off - j) lives in registers,
-// so no entry is stored and reloaded per pixel. A run of pixels [u0, u1) owns the targets only
-// it can reach; the Dp targets it shares with each neighbouring run are merged by atomic minimum
-// (order-independent, so the result is deterministic).
+// so no entry is stored and reloaded per pixel. Runs of pixels (column blocks) work
+// independently: pushing u finishes target x = u - off - Dp as far as this run can see (row[x],
+// a plain store: each x has exactly one such pixel), and Finish leaves the run's last Dp targets
+// in edge[j] (x = u_last - off - j). A target's winner is the minimum of its row entry and, when
+// it lies within Dp of a run's end, that run's edge entry (RightWinnerRows::At): order-independent,
+// so deterministic, and no shared entry is written twice.
 constexpr int kL32 = 16;
 using v32 = uint32_t __attribute__((vector_size(4 * kL32)));
 using m32 = uint32_t __attribute__((vector_size(4 * kL32)));
 using v16h = uint16_t __attribute__((vector_size(2 * kL32)));
 constexpr uint32_t kNoMatch = 0xFFFFFFFFu;
-
-inline void AtomicMin(uint32_t* p, uint32_t x) {
-  std::atomic_ref<uint32_t> a(*p);
-  uint32_t cur = a.load(std::memory_order_relaxed);
-  while (x < cur && !a.compare_exchange_weak(cur, x, std::memory_order_relaxed)) {
-  }
-}
 
 template <int kN = 0>  // kN: Dp / 16 known at compile time (the window stays in registers), or 0
 class RightWinners {
@@ -269,9 +274,9 @@ class RightWinners {
         key_[c][i] = k < D ? static_cast<uint32_t>(k) : kNoMatch;  // padded lanes never win
       }
   }
-  // Starts the run at pixel u0 of a row whose targets go to `row` (W entries, initialised to kNoMatch).
-  void Start(uint32_t* row, int W, int u0, int off) {
-    row_ = row, W_ = W, u0_ = u0, off_ = off, u_ = u0;
+  // Starts a run at pixel u0 of a row: targets go to row (W entries), the run's end to edge (Dp).
+  void Start(uint32_t* row, uint32_t* edge, int W, int u0, int off) {
+    row_ = row, edge_ = edge, W_ = W, off_ = off, u_ = u0;
     for (int c = 0; c < n_; ++c) win_[c] = v32{} + kNoMatch;
   }
   // Adds pixel u_ (the next in the run) with summed costs S[0, Dp).
@@ -285,27 +290,54 @@ class RightWinners {
       const v32 packed = (__builtin_convertvector(s, v32) << 16) | key_[c];
       win_[c] = win_[c] < packed ? win_[c] : packed;
     }
-    Emit(u_ - off_ - n_ * kL32, done, u_ - u0_ < n_ * kL32);
+    const int x = u_ - off_ - n_ * kL32;
+    if (x >= 0 && x < W_) row_[x] = done;
     ++u_;
   }
-  // Ends the run: its last Dp targets are shared with the next run.
+  // Ends the run: lane j (target x = u_last - off - j) to edge[j].
   void Finish() {
-    for (int c = 0; c < n_; ++c)
-      for (int i = 0; i < kL32; ++i) Emit(u_ - 1 - off_ - (c * kL32 + i), win_[c][i], true);
+    for (int c = 0; c < n_; ++c) std::memcpy(edge_ + c * kL32, &win_[c], sizeof(v32));
   }
 
  private:
-  void Emit(int x, uint32_t value, bool shared) {
-    if (x < 0 || x >= W_ || value == kNoMatch) return;
-    if (shared) AtomicMin(row_ + x, value);
-    else row_[x] = value;
-  }
   static constexpr int kMax = kN ? kN : 1024 / kL32;
   const int n_;
   std::array<v32, kMax> win_;
   std::array<v32, kMax> key_;
   uint32_t* row_ = nullptr;
-  int W_ = 0, u0_ = 0, off_ = 0, u_ = 0;
+  uint32_t* edge_ = nullptr;
+  int W_ = 0, off_ = 0, u_ = 0;
+};
+
+// Where RightWinners left the rows: runs are column blocks [b * block, min(W, (b + 1) * block)),
+// block >= Dp (only the last run, or a single one, may be narrower).
+struct RightWinnerRows {
+  const uint32_t* row;   // H x W
+  const uint32_t* edge;  // H x blocks x Dp
+  int W, Dp, blocks;
+  // Per first candidate ux = x + off in [-Dp, W), at [ux + Dp]: up to two run-end entries
+  // (b * Dp + j) holding some of the target's candidates, -1 if none. A table, not a division per pixel.
+  std::vector<int> end1, end2;
+  RightWinnerRows(const uint32_t* row_, const uint32_t* edge_, int W_, int Dp_, int block)
+      : row(row_), edge(edge_), W(W_), Dp(Dp_), blocks((W_ + block - 1) / block), end1(W_ + Dp_, -1), end2(W_ + Dp_, -1) {
+    for (int b = 0; b < blocks; ++b) {
+      const int u1 = std::min(W, (b + 1) * block);
+      for (int j = 0; j < Dp; ++j) {  // run b's lane j: ux = u1 - 1 - j
+        const int i = u1 - 1 - j + Dp;
+        if (i < 0) break;
+        (end1[i] < 0 ? end1[i] : end2[i]) = b * Dp + j;
+      }
+    }
+  }
+  // Packed right-view winner of target x in row v (kNoMatch: no candidate inside the image).
+  uint32_t At(int v, int x, int off) const {
+    const int ux = x + off;  // the target's candidates are pixels ux .. ux + Dp - 1
+    uint32_t best = ux + Dp >= 0 && ux + Dp < W ? row[static_cast<size_t>(v) * W + x] : kNoMatch;
+    const uint32_t* e = edge + static_cast<size_t>(v) * blocks * Dp;
+    if (const int i = end1[ux + Dp]; i >= 0) best = std::min(best, e[i]);
+    if (const int i = end2[ux + Dp]; i >= 0) best = std::min(best, e[i]);
+    return best;
+  }
 };
 
 // cr_rev / ir_rev: the target row reversed (index W - 1 - x), so the candidates of one
@@ -448,7 +480,9 @@ struct VerticalContext {
   bool lr;
   const Wta& wta;
   uint16_t* best;
-  uint32_t* right;
+  uint32_t* right;  // RightWinners rows, H x W
+  uint32_t* edge;   // RightWinners run ends, H x blocks x Dp
+  int block, blocks;  // column blocks [b * block, min(W, (b + 1) * block)), block >= Dp
   SgmOutput* out;
   int Offset(int v) const { return P.min_disparity + (P.row_offset.empty() ? 0 : P.row_offset[v]); }
   int I(int v, int u) const { return img[static_cast<size_t>(v) * W + u]; }
@@ -464,8 +498,8 @@ void VerticalPathsAndWta(const VerticalContext& c) {
   constexpr int kDp = kNC * kLanes;
   const int dp = kNC ? kDp : c.Dp, W = c.W, H = c.H;
   const Volume& vol = c.vol;
-  tbb::parallel_for(tbb::blocked_range<int>(0, W, 256), [&](const tbb::blocked_range<int>& r) {
-    const int n = static_cast<int>(r.size());
+  tbb::parallel_for(0, c.blocks, [&](int blk) {
+    const int u0 = blk * c.block, n = std::min(W, u0 + c.block) - u0;
     LineBuffer a(n, dp), b(n, dp);
     std::vector<uint16_t> sbuf(dp);
     uint16_t* s = sbuf.data();
@@ -475,10 +509,11 @@ void VerticalPathsAndWta(const VerticalContext& c) {
       float* disp = c.out->disparity.ptr<float>(v);
       uint8_t* valid = c.out->valid.ptr<uint8_t>(v);
       uint16_t* bestv = c.best + static_cast<size_t>(v) * W;
-      if (c.lr) rw.Start(c.right + static_cast<size_t>(v) * W, W, r.begin(), off);
+      if (c.lr)
+        rw.Start(c.right + static_cast<size_t>(v) * W, c.edge + (static_cast<size_t>(v) * c.blocks + blk) * dp, W, u0, off);
       const int vn = std::max(v - 1, 0);  // next row up: prefetched (rows are 80+ KB apart, beyond the streamers)
       for (int i = 0; i < n; ++i) {
-        const int u = r.begin() + i;
+        const int u = u0 + i;
         __builtin_prefetch(vol.Sum(vn, u));
         for (int j = 64 / sizeof(uint16_t); j < dp; j += 64 / sizeof(uint16_t)) __builtin_prefetch(vol.Sum(vn, u) + j);
         if (i % 2 == 0) __builtin_prefetch(vol.Cost(vn, u));
@@ -555,7 +590,8 @@ inline vb Interleave(vb a, vb b) {
 void CensusInto(const cv::Mat& gray8, int window_width, int window_height, uint64_t* codes) {
   const int W = gray8.cols, H = gray8.rows, rw = window_width / 2, rh = window_height / 2;
   const int n = window_width * window_height - 1;
-  cv::Mat padded;  // 64 extra columns on the right: a full vector can be read at every u < W
+  thread_local cv::Mat tls_padded;  // 64 extra columns on the right: a full vector can be read at every u < W
+  cv::Mat& padded = tls_padded;     // (kept per calling thread: reused, no page faults per frame)
   cv::copyMakeBorder(gray8, padded, rh, rh, rw, rw + 64, cv::BORDER_REPLICATE);
   const ptrdiff_t stride = static_cast<ptrdiff_t>(padded.step);
   std::vector<ptrdiff_t> offsets;  // neighbour address - centre address, in comparison order
@@ -670,12 +706,18 @@ SgmOutput ComputeSgm(const cv::Mat& left_gray8, const cv::Mat& right_gray8, cons
   }
 
   // Right-view winners (left-right check) packed per target pixel, and the left winners.
-  thread_local std::vector<uint32_t> tls_right;
+  // Column blocks of the 4-path upward sweep (one run per row with 8 paths); every entry of
+  // `right` and `edge` that RightWinner reads is written each frame, so neither is cleared.
+  // About 16 blocks (2 threads stay balanced), at least Dp wide (RightWinnerRows), at most 256.
+  const int block = P.num_paths == 4 ? std::max(Dp, std::min(256, (W / 16 + 15) / 16 * 16)) : W;
+  const int blocks = (W + block - 1) / block;
+  thread_local std::vector<uint32_t> tls_right, tls_edge;
   thread_local std::vector<uint16_t> tls_best;
   std::vector<uint32_t>& right = tls_right;
+  std::vector<uint32_t>& edge = tls_edge;
   std::vector<uint16_t>& best = tls_best;
   const bool lr = P.lr_max_diff >= 0;
-  if (lr) right.assign(static_cast<size_t>(W) * H, kNoMatch);
+  if (lr) right.resize(static_cast<size_t>(W) * H), edge.resize(static_cast<size_t>(H) * blocks * Dp);
   best.resize(static_cast<size_t>(W) * H);
   out.disparity.create(H, W, CV_32F);
   out.valid.create(H, W, CV_8U);
@@ -683,10 +725,8 @@ SgmOutput ComputeSgm(const cv::Mat& left_gray8, const cv::Mat& right_gray8, cons
   double wta_ms = 0;
 
   if (P.num_paths == 4) {
-    // Vertical paths: columns are independent, so blocks of columns sweep the whole image
-    // without a barrier per row. The upward sweep is the last path: it hands each pixel's final
-    // sums straight to winner-takes-all instead of storing them.
-    const VerticalContext ctx{vol, bias.data(), pen, img, P, W, H, D, Dp, lr, wta, best.data(), right.data(), &out};
+    const VerticalContext ctx{vol,  bias.data(), pen,         img,   P,      W,   H, D, Dp, lr, wta, best.data(),
+                              right.data(), edge.data(), block, blocks, &out};
     switch (nchunks) {
       case 1: VerticalPathsAndWta<1>(ctx); break;
       case 2: VerticalPathsAndWta<2>(ctx); break;
@@ -727,7 +767,7 @@ SgmOutput ComputeSgm(const cv::Mat& left_gray8, const cv::Mat& right_gray8, cons
         float* disp = out.disparity.ptr<float>(v);
         uint8_t* valid = out.valid.ptr<uint8_t>(v);
         uint16_t* bestv = best.data() + static_cast<size_t>(v) * W;
-        if (lr) rw.Start(right.data() + static_cast<size_t>(v) * W, W, 0, off);
+        if (lr) rw.Start(right.data() + static_cast<size_t>(v) * W, edge.data() + static_cast<size_t>(v) * Dp, W, 0, off);
         for (int u = 0; u < W; ++u) {
           bestv[u] = static_cast<uint16_t>(wta.Pixel(vol.Sum(v, u), u, off, disp + u, valid + u));
           if (lr) rw.Push(vol.Sum(v, u));
@@ -743,16 +783,16 @@ SgmOutput ComputeSgm(const cv::Mat& left_gray8, const cv::Mat& right_gray8, cons
   // Left-right check: the right-view winner of the matched target pixel must agree.
   t0 = std::chrono::steady_clock::now();
   if (lr) {
+    const RightWinnerRows winners(right.data(), edge.data(), W, Dp, block);
     tbb::parallel_for(tbb::blocked_range<int>(0, H, 16), [&](const tbb::blocked_range<int>& r) {
       for (int v = r.begin(); v < r.end(); ++v) {
         const int off = offset(v);
         float* disp = out.disparity.ptr<float>(v);
         uint8_t* valid = out.valid.ptr<uint8_t>(v);
         const uint16_t* bestv = best.data() + static_cast<size_t>(v) * W;
-        const uint32_t* rv = right.data() + static_cast<size_t>(v) * W;
         for (int u = 0; u < W; ++u) {
           if (!valid[u]) continue;
-          const uint32_t rx = rv[u - off - bestv[u]];  // in range: checked by Wta::Pixel
+          const uint32_t rx = winners.At(v, u - off - bestv[u], off);  // x in range: checked by Wta::Pixel
           if (rx == kNoMatch || std::abs(static_cast<int>(rx & 0xFFFF) - bestv[u]) > P.lr_max_diff)
             valid[u] = 0, disp[u] = 0.0f;
         }

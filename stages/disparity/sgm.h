@@ -51,8 +51,10 @@ struct SgmOutput {
   cv::Mat valid;      ///< CV_8U, 255 valid, 0 rejected (border, uniqueness or left-right)
   double census_ms = 0;       ///< wall time of both census transforms
   double cost_ms = 0;         ///< matching cost time summed over threads (it runs inside the aggregation pass)
-  double aggregation_ms = 0;  ///< wall time of cost + path aggregation
-  double wta_ms = 0;          ///< wall time of winner-takes-all, uniqueness, sub-pixel, left-right check
+  /// Wall time of cost + path aggregation; with 4 paths it includes winner-takes-all, which is
+  /// fused into the last path.
+  double aggregation_ms = 0;
+  double wta_ms = 0;  ///< wall time of the left-right check (+ winner-takes-all with 8 paths)
 };
 
 /// Optimised SGM on rectified 8-bit grey images of equal size (left = reference).

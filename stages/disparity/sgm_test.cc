@@ -87,7 +87,11 @@ TEST(Sgm, MatchesReferenceFourPathsAcrossColumnBlocks) {
     int W, H, min_d, num_d, lr;
     bool offsets;
   };
-  const Case cases[] = {{700, 37, -2, 40, 1, true}, {531, 21, 3, 33, 0, false}, {769, 17, 0, 112, 2, false}};
+  // Block width 256 (320 for D = 300), narrow last blocks, ranges of 1..10 vectors.
+  const Case cases[] = {{700, 37, -2, 40, 1, true},
+                        {531, 21, 3, 33, 0, false},
+                        {769, 17, 0, 112, 2, false},
+                        {700, 9, 0, 300, 1, false}};
   for (const Case& c : cases) {
     cv::Mat l, r;
     MakePair(c.W, c.H, c.W + 1, &l, &r);

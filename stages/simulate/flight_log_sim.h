@@ -15,6 +15,12 @@
 
 namespace rs::sim {
 
+/// Geoid height N (ellipsoidal - AMSL, m) of the simulated world. The world has
+/// no geoid model, so AMSL heights equal ellipsoidal ones; the autopilot logs
+/// (flight_log.ulg / .bin, which store AMSL) therefore carry the same heights
+/// as flight_log.csv (ellipsoidal).
+inline constexpr double kSimGeoidHeightM = 0.0;
+
 /// True time (log clock, UTC ns) of frame k.
 int64_t FrameTimeNs(const SimulationOptions& o, int k);
 /// Camera-clock time of frame k: FrameTimeNs + clock_offset_s.

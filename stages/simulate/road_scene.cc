@@ -1,6 +1,7 @@
 #include "stages/simulate/road_scene.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 
@@ -27,6 +28,31 @@ inline double Bilinear(const std::vector<T>& v, int ns, int i0, int j0, double w
   return (v00 * (1 - wi) + v10 * wi) * (1 - wj) + (v01 * (1 - wi) + v11 * wi) * wj;
 }
 
+/// atan(k / 8), k = 0..8: the anchors of AtanRel's range reduction.
+const std::array<double, 9> kAtanEighths = [] {
+  std::array<double, 9> a{};
+  for (int k = 0; k <= 8; ++k) a[k] = std::atan(k / 8.0);
+  return a;
+}();
+
+/// atan2(y, x) for the common case x > 0, |y| <= x (angles within 45 deg), at
+/// full double precision for a fraction of libm's cost: atan(a) = atan(k/8) +
+/// atan(u), u = (a - k/8) / (1 + a k/8), |u| <= 1/16, and atan(u) by its Taylor
+/// series to u^13 (truncation < 1e-19). Other quadrants go to std::atan2.
+/// ToRoad runs several times per rendered pixel on curved roads, which made
+/// libm's atan2 the renderer's largest single cost.
+inline double Atan2Fast(double y, double x) {
+  if (!(x > 0) || std::abs(y) > x) return std::atan2(y, x);
+  const double z = y / x, a = std::abs(z);
+  const int k = static_cast<int>(a * 8.0 + 0.5);
+  const double q = k * 0.125;
+  const double u = (a - q) / (1.0 + a * q), u2 = u * u;
+  const double p =
+      u * (1.0 + u2 * (-1.0 / 3 + u2 * (1.0 / 5 + u2 * (-1.0 / 7 + u2 * (1.0 / 9 + u2 * (-1.0 / 11 + u2 * (1.0 / 13)))))));
+  const double r = kAtanEighths[k] + p;
+  return z < 0 ? -r : r;
+}
+
 }  // namespace
 
 const char* ToString(DamageType t) {
@@ -48,7 +74,9 @@ RoadGeometry::RoadGeometry(const SimulationOptions& o)
       grade_(o.road_grade),
       crossfall_(o.road_crossfall),
       half_width_(o.road_width_m / 2),
-      kerb_height_(o.kerb_height_m) {
+      kerb_height_(o.kerb_height_m),
+      cos0_(std::cos(heading0_)),
+      sin0_(std::sin(heading0_)) {
   if (curvature_ != 0) {
     centre_ = Eigen::Vector2d(-std::sin(heading0_), std::cos(heading0_)) / curvature_;
   } else {
@@ -79,8 +107,9 @@ void RoadGeometry::ToRoad(double x, double y, double* s, double* l, double* cos_
   // n(s) = -v / (sg r) = (-sin h, cos h)
   const double nx = -vx * sg / r, ny = -vy * sg / r;
   if (cos_h) *cos_h = ny, *sin_h = -nx;
-  const double h = std::atan2(-nx, ny);
-  *s = std::remainder(h - heading0_, 2 * kPi) / curvature_;
+  // Heading relative to heading0_, in [-pi, pi]: (cos, sin) of h - heading0_.
+  const double c_rel = ny * cos0_ - nx * sin0_, s_rel = -nx * cos0_ - ny * sin0_;
+  *s = Atan2Fast(s_rel, c_rel) / curvature_;
 }
 
 double RoadGeometry::IntactZ(double s, double l, double* dz_ds, double* dz_dl) const {
@@ -218,6 +247,19 @@ bool RoadScene::ObstacleHit(const Eigen::Vector3d& o, const Eigen::Vector3d& d, 
   bool any = false;
   double best = t_max;
   for (const Obstacle& ob : obstacles_) {
+    {
+      // Bounding-sphere rejection: most rays pass far from every obstacle, and
+      // this costs a few multiplies instead of a rotated slab or quadric test.
+      const bool box = ob.kind == Obstacle::Kind::kBox;
+      const double hz = box ? 0.0 : 0.5 * ob.half_size.z();
+      const Eigen::Vector3d w = ob.centre + Eigen::Vector3d(0, 0, hz) - o;
+      const double r2 = box ? ob.half_size.squaredNorm() : ob.half_size.x() * ob.half_size.x() + hz * hz;
+      const double tc = w.dot(d);
+      const double dist2 = w.squaredNorm() - tc * tc;
+      if (dist2 > r2 * 1.0001 + 1e-9) continue;
+      const double r = std::sqrt(r2) * 1.0001 + 1e-6;
+      if (tc + r < 0 || tc - r > best) continue;
+    }
     if (ob.kind == Obstacle::Kind::kBox) {
       const Eigen::Vector3d ol = ob.R_world_obj.transpose() * (o - ob.centre);
       const Eigen::Vector3d dl = ob.R_world_obj.transpose() * d;
@@ -298,6 +340,7 @@ RayHit RoadScene::Cast(const Eigen::Vector3d& o, const Eigen::Vector3d& d, doubl
   // under the ray origin; a bracketing march handles kerb faces and pothole walls.
   bool hit_surf = false;
   double t = 0, s = 0, l = 0;
+  double ch = 1, sh = 0;  // centreline direction at s: from ToRoad, so shading needs no cos/sin of the heading
   SurfaceSample S;
   if (d.z() < -1e-4) {
     if (std::isnan(z_start)) {
@@ -308,7 +351,6 @@ RayHit RoadScene::Cast(const Eigen::Vector3d& o, const Eigen::Vector3d& d, doubl
     bool converged = false;
     for (int it = 0; it < 8 && t > 0 && t < kMaxRange; ++it) {
       const Eigen::Vector3d p = o + t * d;
-      double ch, sh;
       road_.ToRoad(p.x(), p.y(), &s, &l, &ch, &sh);
       S = Surface(s, l);
       const double f = p.z() - S.z;
@@ -334,7 +376,7 @@ RayHit RoadScene::Cast(const Eigen::Vector3d& o, const Eigen::Vector3d& d, doubl
       double ta = std::max(0.0, ts - 0.5 / dzt), tb_limit = ts + 0.5 / dzt;
       auto F = [&](double tt) {
         const Eigen::Vector3d p = o + tt * d;
-        road_.ToRoad(p.x(), p.y(), &s, &l);
+        road_.ToRoad(p.x(), p.y(), &s, &l, &ch, &sh);
         S = Surface(s, l);
         return p.z() - S.z;
       };
@@ -378,8 +420,6 @@ RayHit RoadScene::Cast(const Eigen::Vector3d& o, const Eigen::Vector3d& d, doubl
   out.hit = true;
   out.t = t;
   out.p_world = o + t * d;
-  const double h = road_.HeadingRad(s);
-  const double ch = std::cos(h), sh = std::sin(h);
   const double gs = S.dz_ds / road_.Stretch(l);
   const Eigen::Vector3d n =
       Eigen::Vector3d(-(gs * ch - S.dz_dl * sh), -(gs * sh + S.dz_dl * ch), 1.0).normalized();

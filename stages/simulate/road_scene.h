@@ -45,6 +45,7 @@ class RoadGeometry {
 
  private:
   double heading0_, curvature_, grade_, crossfall_, half_width_, kerb_height_;
+  double cos0_, sin0_;      // direction of the centreline at s = 0
   Eigen::Vector2d centre_;  // centre of the arc (unused when straight)
 };
 

@@ -12,8 +12,10 @@
 #include <tbb/global_control.h>
 #include <tbb/parallel_invoke.h>
 
+#include "formats/dataflash/dataflash_writer.h"
 #include "formats/flightlog/track_csv.h"
 #include "formats/stereo/calibration_yaml.h"
+#include "formats/ulog/ulog_writer.h"
 #include "stages/simulate/flight_log_sim.h"
 #include "stages/simulate/flight_path.h"
 #include "stages/simulate/road_scene.h"
@@ -139,6 +141,14 @@ SimulationSummary Simulate(const SimulationOptions& o, const fs::path& out, cons
     std::ofstream g(out / "flight_log.gpx");
     sim::WriteGpx(g, track, "roadsurvey simulate " + o.preset);
     if (!f || !g) throw std::runtime_error("cannot write the flight log in " + out.string());
+    // The same track in the autopilot formats the ingest reads (log clock, like the CSV).
+    UlogWriteOptions ulog;
+    ulog.sys_name = "roadsurvey-simulator";
+    ulog.geoid_height_m = sim::kSimGeoidHeightM;
+    WriteUlogTrack(out / "flight_log.ulg", track, ulog);
+    DataflashWriteOptions bin;
+    bin.geoid_height_m = sim::kSimGeoidHeightM;
+    WriteDataflashTrack(out / "flight_log.bin", track, bin);
   }
   sim::WriteTum(out / "truth/trajectory.tum", cam_t_ns, poses);
   sim::WriteDamagesGeoJson(out / "truth/damages.geojson", scene, enu);

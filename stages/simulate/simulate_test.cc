@@ -11,9 +11,13 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "formats/dataflash/dataflash_track.h"
+#include "formats/flight_log/flight_log.h"
 #include "formats/flightlog/track_csv.h"
 #include "formats/geojson/geojson.h"
 #include "formats/stereo/calibration_yaml.h"
+#include "formats/ulog/ulog_track.h"
+#include "stages/simulate/flight_log_sim.h"
 #include "stages/simulate/road_scene.h"
 
 namespace rs {
@@ -90,7 +94,8 @@ SimulationSummary* SimulateTest::summary_ = nullptr;
 TEST_F(SimulateTest, Nominal) {
   const fs::path& d = *dir_;
   EXPECT_EQ(summary_->frames, 6);
-  for (const char* f : {"timestamps.csv", "calibration.yaml", "flight_log.csv", "flight_log.gpx", "survey.json",
+  for (const char* f : {"timestamps.csv", "calibration.yaml", "flight_log.csv", "flight_log.gpx", "flight_log.ulg",
+                        "flight_log.bin", "survey.json",
                         "truth/trajectory.tum", "truth/damages.geojson", "truth/road_surface.ply",
                         "truth/georeference.json", "truth/scene.json"}) {
     EXPECT_TRUE(fs::exists(d / f)) << f;
@@ -265,6 +270,59 @@ TEST_F(SimulateTest, GnssAgreesWithTruth) {
   }
 }
 
+// flight_log.ulg and flight_log.bin hold the CSV's track within each format's quantization.
+TEST_F(SimulateTest, AutopilotLogsMatchCsv) {
+  const FlightTrack csv = ReadTrackCsv(*dir_ / "flight_log.csv");
+  const FlightTrack ulg = ReadUlogTrack(*dir_ / "flight_log.ulg");
+  const FlightTrack bin = ReadDataflashTrack(*dir_ / "flight_log.bin");
+  EXPECT_EQ(DetectFlightLogFormat(*dir_ / "flight_log.ulg"), "px4-ulog");
+  EXPECT_EQ(DetectFlightLogFormat(*dir_ / "flight_log.bin"), "ardupilot-dataflash");
+  struct Quant {
+    const FlightTrack* t;
+    int64_t dt_ns;      // time: 1 us (ULog), 1 ms (DataFlash GPS ms; boot clock fitted to it)
+    double alt_m;       // int32 mm / int32 cm (fixes)
+    double cam_alt_m;   // float / int32 cm (camera events)
+    double att_deg;     // float quaternion / centidegree Euler angles
+  };
+  for (const Quant& q : {Quant{&ulg, 1000, 0.5e-3, 1e-4, 1e-4}, Quant{&bin, 1'000'000, 0.5e-2, 0.5e-2, 0.0087}}) {
+    const FlightTrack& t = *q.t;
+    SCOPED_TRACE(t.format);
+    EXPECT_EQ(t.time_base, TimeBase::kUtc);
+    ASSERT_EQ(t.fixes.size(), csv.fixes.size());
+    for (size_t i = 0; i < csv.fixes.size(); ++i) {
+      const GnssFix &a = csv.fixes[i], &b = t.fixes[i];
+      EXPECT_LE(std::llabs(a.t_ns - b.t_ns), q.dt_ns);
+      EXPECT_NEAR(b.lat_deg, a.lat_deg, 0.5e-7 + 1e-12);
+      EXPECT_NEAR(b.lon_deg, a.lon_deg, 0.5e-7 + 1e-12);
+      // The logs store AMSL = ellipsoidal - N.
+      EXPECT_EQ(b.alt_ref, AltitudeReference::kAmsl);
+      EXPECT_NEAR(b.alt_m, a.alt_m - sim::kSimGeoidHeightM, q.alt_m + 1e-9);
+      EXPECT_EQ(b.fix_type, a.fix_type);
+      EXPECT_EQ(b.satellites, a.satellites);
+    }
+    ASSERT_EQ(t.attitude.size(), csv.attitude.size());
+    for (size_t i = 0; i < csv.attitude.size(); ++i) {
+      const AttitudeSample &a = csv.attitude[i], &b = t.attitude[i];
+      EXPECT_LE(std::llabs(a.t_ns - b.t_ns), q.dt_ns);
+      const double d = std::fabs(a.qw * b.qw + a.qx * b.qx + a.qy * b.qy + a.qz * b.qz);
+      EXPECT_LT(2 * std::acos(std::min(1.0, d)) * 180 / M_PI, q.att_deg) << i;
+    }
+    ASSERT_EQ(t.camera_events.size(), csv.camera_events.size());
+    for (size_t i = 0; i < csv.camera_events.size(); ++i) {
+      const CameraEvent &a = csv.camera_events[i], &b = t.camera_events[i];
+      // Log clock, like the CSV: camera clock (timestamps.csv) = this + clock_offset_s.
+      EXPECT_LE(std::llabs(a.t_ns - b.t_ns), q.dt_ns);
+      EXPECT_EQ(b.sequence, a.sequence);
+      EXPECT_NEAR(b.lat_deg, a.lat_deg, 0.5e-7 + 1e-12);
+      EXPECT_NEAR(b.lon_deg, a.lon_deg, 0.5e-7 + 1e-12);
+      EXPECT_NEAR(b.alt_m, a.alt_m - sim::kSimGeoidHeightM, q.cam_alt_m);
+    }
+  }
+  // Frame 0 is exposed at the log-clock start time; its camera-clock stamp is 0.25 s later.
+  EXPECT_EQ(ulg.camera_events[0].t_ns, 1'700'000'000'000'000'000LL);
+  EXPECT_EQ(bin.camera_events[0].t_ns, 1'700'000'000'000'000'000LL);
+}
+
 TEST_F(SimulateTest, MasksMatchScene) {
   const sim::RoadScene scene = Scene();
   const auto poses = ReadTum(*dir_ / "truth/trajectory.tum");
@@ -298,6 +356,8 @@ TEST_F(SimulateTest, Deterministic) {
   EXPECT_EQ(bytes(other / "left/000001.png"), bytes(*dir_ / "left/000001.png"));
   EXPECT_EQ(bytes(other / "right/000001.png"), bytes(*dir_ / "right/000001.png"));
   EXPECT_EQ(bytes(other / "truth/damages.geojson"), bytes(*dir_ / "truth/damages.geojson"));
+  EXPECT_EQ(bytes(other / "flight_log.ulg"), bytes(*dir_ / "flight_log.ulg"));
+  EXPECT_EQ(bytes(other / "flight_log.bin"), bytes(*dir_ / "flight_log.bin"));
 }
 
 }  // namespace

@@ -31,6 +31,7 @@ int main(int argc, char** argv) {
     if (const char* f = std::getenv("SLAM_FEATURES")) opt.features = std::atoi(f);
     if (const char* f = std::getenv("SLAM_KF_GAP")) opt.keyframe_max_gap = std::atoi(f);
     if (const char* f = std::getenv("SLAM_BA_KF")) opt.local_ba_keyframes = std::atoi(f);
+    if (const char* f = std::getenv("SLAM_TRIANGULATION")) opt.triangulation_neighbours = std::atoi(f);
     if (!only_sim) {
       const fs::path kitti = fs::path(data) / "kitti_vo_clips/KITTI_sequence_1";
       if (fs::exists(kitti)) {

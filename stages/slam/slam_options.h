@@ -25,6 +25,7 @@ struct SlamOptions {
   int local_ba_keyframes = 8;       ///< keyframes optimised by each local bundle adjustment
   int local_ba_iterations = 8;      ///< Ceres iterations of each local BA pass
   int local_map_keyframes = 20;     ///< keyframes whose points form the local map tracked against
+  int triangulation_neighbours = 0;  ///< covisible keyframes matched with each new keyframe to triangulate new points (0: off; 10 = ORB-SLAM2)
   // --- loop closure (run in StereoSlam::Finish)
   bool loop_closure = true;         ///< detect and close loops, then run a global bundle adjustment
   int vocabulary_branching = 16;    ///< branching factor of the bag-of-words vocabulary tree

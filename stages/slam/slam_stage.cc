@@ -50,6 +50,9 @@ const OptionTable<SlamOptions>& SlamTable() {
           .Add("local_ba_iterations", &SlamOptions::local_ba_iterations, "solver iterations of each local BA").Min(1)
           .Add("local_map_keyframes", &SlamOptions::local_map_keyframes, "keyframes whose points form the local map")
           .Min(1)
+          .Add("triangulation_neighbours", &SlamOptions::triangulation_neighbours,
+               "covisible keyframes matched with each new keyframe to triangulate new points (0: off; 10 = ORB-SLAM2)")
+          .Min(0)
           .Add("loop_closure", &SlamOptions::loop_closure, "detect and close loops, then a global bundle adjustment")
           .Add("vocabulary_branching", &SlamOptions::vocabulary_branching, "bag-of-words vocabulary tree branching")
           .Min(2)

@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include <fmt/format.h>
+#include <Eigen/SVD>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
 
@@ -437,6 +438,118 @@ struct StereoSlam::Impl {
     return id;
   }
 
+  // New points from matches between keyframe kf and its best covisible keyframes (ORB-SLAM2's
+  // CreateNewMapPoints): features without a map point in both, descriptor distance <= 50, within
+  // the epipolar band (chi2 3.84 at the candidate's level sigma), then linear triangulation with
+  // positive depth, enough parallax (else the stereo depth, if larger parallax), reprojection chi2 in
+  // both keyframes and consistent scale. Gives far points (rotation) and multi-keyframe points.
+  int CreateNewMapPoints(int kf) {
+    Keyframe& k1 = map.keyframes[kf];
+    const Eigen::Isometry3d T1 = k1.T_cam_world;
+    const Eigen::Vector3d c1 = k1.Center();
+    const Eigen::Matrix3d K = (Eigen::Matrix3d() << cam.fx, 0, cam.cx, 0, cam.fy, cam.cy, 0, 0, 1).finished();
+    const Eigen::Matrix3d Kinv = K.inverse();
+    const double ratio_factor = 1.5 * (pyr.levels() > 1 ? pyr.scale[1] : 1.0);
+    std::vector<int> free1;
+    for (size_t i = 0; i < k1.features.size(); ++i)
+      if (k1.points[i] < 0) free1.push_back(static_cast<int>(i));
+    int created = 0;
+    for (int n : k1.BestCovisible(opt.triangulation_neighbours)) {
+      Keyframe& k2 = map.keyframes[n];
+      if (k2.bad || k2.segment != k1.segment) continue;
+      const Eigen::Vector3d c2 = k2.Center();
+      if ((c2 - c1).norm() < cam.baseline_m) continue;  // the stereo pair already has this baseline
+      const Eigen::Isometry3d T21 = k2.T_cam_world * T1.inverse();
+      const Eigen::Matrix3d R21 = T21.linear();
+      const Eigen::Vector3d t21 = T21.translation();
+      Eigen::Matrix3d tx;
+      tx << 0, -t21.z(), t21.y(), t21.z(), 0, -t21.x(), -t21.y(), t21.x(), 0;
+      const Eigen::Matrix3d F21 = Kinv.transpose() * tx * R21 * Kinv;  // x2^T F21 x1 = 0
+      std::vector<int> free2;
+      for (size_t j = 0; j < k2.features.size(); ++j)
+        if (k2.points[j] < 0) free2.push_back(static_cast<int>(j));
+      std::vector<int> taken2(k2.features.size(), 0);
+      for (int i : free1) {
+        if (k1.points[i] >= 0) continue;
+        const cv::KeyPoint& kp1 = k1.features.keypoints[i];
+        const Eigen::Vector3d l = F21 * Eigen::Vector3d(kp1.pt.x, kp1.pt.y, 1);
+        const double ln = l.x() * l.x() + l.y() * l.y();
+        if (ln < 1e-12) continue;
+        const uint8_t* d1 = k1.features.descriptors.ptr<uint8_t>(i);
+        int best = 51, best_j = -1;
+        for (int j : free2) {
+          if (taken2[j]) continue;
+          const cv::KeyPoint& kp2 = k2.features.keypoints[j];
+          if (kp2.octave < kp1.octave - 1 || kp2.octave > kp1.octave + 1) continue;
+          const double num = l.x() * kp2.pt.x + l.y() * kp2.pt.y + l.z();
+          if (num * num / ln >= 3.84 * pyr.sigma2[kp2.octave]) continue;
+          const int d = DescriptorDistance(d1, k2.features.descriptors.ptr<uint8_t>(j));
+          if (d < best) {
+            best = d;
+            best_j = j;
+          }
+        }
+        if (best_j < 0) continue;
+        const cv::KeyPoint& kp2 = k2.features.keypoints[best_j];
+        const Eigen::Vector3d r1 = Kinv * Eigen::Vector3d(kp1.pt.x, kp1.pt.y, 1);
+        const Eigen::Vector3d r2 = Kinv * Eigen::Vector3d(kp2.pt.x, kp2.pt.y, 1);
+        const Eigen::Vector3d ray1 = T1.linear().transpose() * r1, ray2 = k2.T_cam_world.linear().transpose() * r2;
+        const double cos_rays = ray1.dot(ray2) / (ray1.norm() * ray2.norm());
+        const bool stereo1 = k1.features.depth_m[i] > 0, stereo2 = k2.features.depth_m[best_j] > 0;
+        const double cos_s1 = stereo1 ? std::cos(2 * std::atan2(cam.baseline_m / 2, k1.features.depth_m[i])) : 2;
+        const double cos_s2 = stereo2 ? std::cos(2 * std::atan2(cam.baseline_m / 2, k2.features.depth_m[best_j])) : 2;
+        const double cos_stereo = std::min(cos_s1, cos_s2);
+        Eigen::Vector3d x;
+        if (cos_rays < cos_stereo && cos_rays > 0 && (stereo1 || stereo2 || cos_rays < 0.9998)) {
+          // Linear triangulation (DLT) in world coordinates.
+          Eigen::Matrix<double, 3, 4> P1 = T1.matrix().topRows<3>(), P2 = k2.T_cam_world.matrix().topRows<3>();
+          Eigen::Matrix4d A;
+          A.row(0) = r1.x() * P1.row(2) - P1.row(0);
+          A.row(1) = r1.y() * P1.row(2) - P1.row(1);
+          A.row(2) = r2.x() * P2.row(2) - P2.row(0);
+          A.row(3) = r2.y() * P2.row(2) - P2.row(1);
+          const Eigen::Vector4d h = Eigen::JacobiSVD<Eigen::Matrix4d>(A, Eigen::ComputeFullV).matrixV().col(3);
+          if (std::abs(h(3)) < 1e-12) continue;
+          x = h.head<3>() / h(3);
+        } else if (stereo1 && cos_s1 < cos_s2) {
+          x = T1.inverse() * Backproject(k1.features, i);
+        } else if (stereo2 && cos_s2 < cos_s1) {
+          x = k2.T_cam_world.inverse() * Backproject(k2.features, best_j);
+        } else {
+          continue;  // no parallax
+        }
+        if (!x.allFinite()) continue;
+        bool ok = true;
+        for (int side = 0; side < 2 && ok; ++side) {
+          const Keyframe& kk = side == 0 ? k1 : k2;
+          const int f = side == 0 ? i : best_j;
+          const Eigen::Vector3d pc = kk.T_cam_world * x;
+          if (pc.z() <= 0) { ok = false; break; }
+          const cv::KeyPoint& kp = kk.features.keypoints[f];
+          double e2 = std::pow(cam.fx * pc.x() / pc.z() + cam.cx - kp.pt.x, 2) +
+                      std::pow(cam.fy * pc.y() / pc.z() + cam.cy - kp.pt.y, 2);
+          const bool st = kk.features.u_right[f] >= 0;
+          if (st) e2 += std::pow(cam.fx * (pc.x() - cam.baseline_m) / pc.z() + cam.cx - kk.features.u_right[f], 2);
+          if (e2 * pyr.inv_sigma2[kp.octave] > (st ? kChi2Stereo : kChi2Mono)) ok = false;
+        }
+        if (!ok) continue;
+        const double dist1 = (x - c1).norm(), dist2 = (x - c2).norm();
+        if (dist1 <= 0 || dist2 <= 0) continue;
+        const double ratio_dist = dist2 / dist1;
+        const double ratio_octave = pyr.scale[kp1.octave] / pyr.scale[kp2.octave];
+        if (ratio_dist * ratio_factor < ratio_octave || ratio_dist > ratio_octave * ratio_factor) continue;
+        const int p = map.AddPoint(x, kf, i);
+        map.AddObservation(p, n, best_j);
+        map.UpdatePointDescriptor(p);
+        map.UpdatePointGeometry(p, pyr);
+        recent_points.emplace_back(p, kf);
+        taken2[best_j] = 1;
+        ++created;
+      }
+    }
+    return created;
+  }
+
   void CullRecentPoints(int kf) {
     std::vector<std::pair<int, int>> keep;
     for (auto [p, created] : recent_points) {
@@ -498,6 +611,7 @@ struct StereoSlam::Impl {
   void LocalMapping(int kf) {
     const auto t0 = Clock::now();
     CullRecentPoints(kf);
+    if (opt.triangulation_neighbours > 0) CreateNewMapPoints(kf);
     std::vector<int> neighbours = map.keyframes[kf].BestCovisible(10);
     {
       std::set<int> in(neighbours.begin(), neighbours.end());

@@ -60,12 +60,38 @@ TEST(StereoSlam, KittiClip) {
   EXPECT_EQ(r.result.stats.frames, 51);
   EXPECT_EQ(r.result.stats.tracked, 51);
   EXPECT_NEAR(r.path_length_m, 59.9, 0.2);
-  EXPECT_LT(r.ate.translation_m.rmse, 0.30);
+  EXPECT_LT(r.ate.translation_m.rmse, 0.28);
   // Keypoints (level-0 pixel-centre convention for every pyramid level), stereo depths and poses
   // agree: the map's own level-0 reprojection residuals stay sub-pixel. (Residuals against KITTI's
   // ground-truth poses are ~1.5 px: the GPS/INS truth is not pixel-accurate, so they are no test.)
   EXPECT_LT(r.reproj_median_px, 0.5);
   EXPECT_LT(r.reproj_right_median_px, 0.3);
+}
+
+// Keyframe-to-keyframe triangulation (ORB-SLAM2's CreateNewMapPoints, off by default: it costs ~45 %
+// CPU and gains 0.01 m while the ~1.4 % scale error dominates; with the scale corrected it takes
+// 0.088 m to 0.055 m at 2000 features, docs/stages/slam.md). It must create multi-keyframe points
+// that survive culling and BA, keep every frame tracked and not worsen the clip.
+TEST(StereoSlam, KittiClipTriangulation) {
+  const auto folder = DataDir() / "kitti_vo_clips/KITTI_sequence_1";
+  if (!std::filesystem::exists(folder)) GTEST_SKIP() << "no " << folder;
+  SlamOptions opt;
+  opt.triangulation_neighbours = 10;
+  const SlamRunReport r = RunKittiOdometry(folder, opt);
+  EXPECT_EQ(r.result.stats.tracked, 51);
+  EXPECT_LT(r.ate.translation_m.rmse, 0.27);
+  // Triangulated points: observed by >= 2 keyframes, at least one of them without a stereo depth.
+  int mono_multi = 0;
+  for (const MapPoint& p : r.result.map.points) {
+    if (p.bad || p.observations.size() < 2) continue;
+    for (const auto& [k, f] : p.observations)
+      if (r.result.map.keyframes[k].features.depth_m[f] <= 0) {
+        ++mono_multi;
+        break;
+      }
+  }
+  EXPECT_GT(mono_multi, 800);  // 1182 measured; 475 without triangulation (fusion adds mono observations)
+  EXPECT_LT(r.reproj_median_px, 0.5);
 }
 
 // EuRoC V1_01 micro: raw pairs rectified; truth through T_BS. The clip covers a nearly static start

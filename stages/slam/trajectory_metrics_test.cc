@@ -1,4 +1,5 @@
 #include "stages/slam/trajectory_metrics.h"
+#include "tests/support/test_data.h"
 
 #include <cmath>
 #include <cstdlib>
@@ -19,8 +20,7 @@ namespace {
 namespace fs = std::filesystem;
 
 fs::path EvoData() {
-  const char* env = std::getenv("ROADSURVEY_DATA");
-  return fs::path(env ? env : ROADSURVEY_DATA_DEFAULT) / "kitti_euroc_trajectories" / "evo" / "test" / "data";
+  return rs::test::DataRoot() / "kitti_euroc_trajectories" / "evo" / "test" / "data";
 }
 
 #define SKIP_WITHOUT_EVO_DATA()                                                                   \
