@@ -277,7 +277,9 @@ TEST_F(ExecutorTest, BadFrameIsSkippedAndCounted) {
   EXPECT_EQ(rec.summary.skip_reasons.at("not a number"), 1);
   EXPECT_EQ(Slurp(root_ / "out" / "sum.txt"), "98");  // 110 - 2 * 6
   // The skip is cached and still reported on a resumed run.
-  const auto r2 = Run({.rerun_from = std::nullopt, .only = std::string("scale")});
+  RunRequest only_scale;
+  only_scale.only = "scale";
+  const auto r2 = Run(only_scale);
   EXPECT_EQ(Status(r2, "scale"), "reused");
   EXPECT_EQ(r2.Find("scale")->summary.frames_skipped, 1) << "reused runs report the cached run's summary";
   EXPECT_EQ(r2.Find("scale")->summary.skip_reasons.at("not a number"), 1);

@@ -21,6 +21,8 @@ void RoadModelOptions::Check() const {
   Require(irls_iterations >= 1, "irls_iterations", irls_iterations, ">=", "1", 1);
   Require(min_noise_m > 0, "min_noise_m", min_noise_m, ">", "0", 0);
   Require(delta_px >= 0, "delta_px", delta_px, ">=", "0", 0);
+  Require(local_cell_px >= 0, "local_cell_px", local_cell_px, ">=", "0", 0);
+  Require(relief_smooth_px >= 1, "relief_smooth_px", relief_smooth_px, ">=", "1", 1);
 }
 
 const OptionTable<RoadModelOptions>& RoadModelOptions::Table() {
@@ -33,7 +35,10 @@ const OptionTable<RoadModelOptions>& RoadModelOptions::Table() {
       .Add("irls_iterations", &O::irls_iterations, "reweighting passes of the robust quadratic fit").Min(1)
       .Add("min_noise_m", &O::min_noise_m, "floor of the robust residual scale", "m").Above(0)
       .Add("delta_px", &O::delta_px, "road level of the transformed disparity", "px").Min(0)
-      .Add("random_seed", &O::random_seed, "RANSAC sampling seed").Min(0);
+      .Add("random_seed", &O::random_seed, "RANSAC sampling seed").Min(0)
+      .Add("local_cell_px", &O::local_cell_px, "cell of the local road-model correction (0 = off)", "px").Min(0)
+      .Add("relief_smooth_px", &O::relief_smooth_px, "box filter of the relief against stereo noise (1 = off)", "px")
+      .Min(1);
   return table;
 }
 
@@ -102,6 +107,8 @@ void MeasureOptions::Check() const {
   Require(sigma_disparity_px > 0, "sigma_disparity_px", sigma_disparity_px, ">", "0", 0);
   Require(pothole_min_depth_m >= 0, "pothole_min_depth_m", pothole_min_depth_m, ">=", "0", 0);
   Require(pothole_min_diameter_m >= 0, "pothole_min_diameter_m", pothole_min_diameter_m, ">=", "0", 0);
+  Require(pothole_min_core_width_m >= 0, "pothole_min_core_width_m", pothole_min_core_width_m, ">=", "0", 0);
+  Require(pothole_min_depth_sigma >= 0, "pothole_min_depth_sigma", pothole_min_depth_sigma, ">=", "0", 0);
   Require(depth_percentile > 0.5 && depth_percentile <= 1, "depth_percentile", depth_percentile, "in", "(0.5, 1]",
           0);
 }
@@ -112,6 +119,12 @@ const OptionTable<MeasureOptions>& MeasureOptions::Table() {
       .Add("sigma_disparity_px", &O::sigma_disparity_px, "stereo matching noise σ_d", "px").Above(0)
       .Add("pothole_min_depth_m", &O::pothole_min_depth_m, "shallower depressions are 'other'", "m").Min(0)
       .Add("pothole_min_diameter_m", &O::pothole_min_diameter_m, "narrower depressions are 'other'", "m").Min(0)
+      .Add("pothole_min_core_width_m", &O::pothole_min_core_width_m,
+           "depressions whose half-max-depth core is narrower are 'other' (cracks)", "m")
+      .Min(0)
+      .Add("pothole_min_depth_sigma", &O::pothole_min_depth_sigma,
+           "depressions shallower than this many sigma_Z are 'other'")
+      .Min(0)
       .Add("depth_percentile", &O::depth_percentile, "percentile of depth reported as max depth").Above(0.5).Max(1);
   return table;
 }

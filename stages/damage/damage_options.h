@@ -16,6 +16,12 @@ struct RoadModelOptions {
   double min_noise_m = 0.002;         ///< floor of the robust residual scale, m (keeps Tukey from collapsing)
   double delta_px = 30;               ///< δ added to the transformed disparity so the road sits at δ (as fan2019)
   unsigned random_seed = 1;           ///< RANSAC sampling seed (results are reproducible)
+  /// Cell of the local correction of the quadratic model (robust median of road residuals per
+  /// cell, damage excluded, smoothed): follows a crowned (roof-shaped) road; 0 = off.
+  int local_cell_px = 48;
+  /// Side of the normalised box filter (valid pixels only) applied to the transformed disparity
+  /// and the depth below the road: averages stereo matching noise; 1 = off.
+  int relief_smooth_px = 7;
   void Check() const;
   static const OptionTable<RoadModelOptions>& Table();
 };
@@ -56,6 +62,12 @@ struct MeasureOptions {
   double sigma_disparity_px = 0.25;     ///< stereo matching noise σ_d used for σ_Z = Z²σ_d/(fB), px
   double pothole_min_depth_m = 0.013;   ///< shallower depressions are "other" (ASTM smallest graded depth)
   double pothole_min_diameter_m = 0.10; ///< narrower depressions are "other" (ASTM smallest graded diameter)
+  /// Width of the part at least half the max depth deep (largest inscribed circle): a deep but
+  /// narrow crack, widened by segmentation, is not a pothole.
+  double pothole_min_core_width_m = 0.05;
+  /// Max depth must reach this many σ_Z (stereo depth noise at the instance's range): far
+  /// depressions within the noise are "other".
+  double pothole_min_depth_sigma = 1.0;
   double depth_percentile = 0.99;       ///< max depth = this percentile of per-pixel depth (rejects single-pixel spikes)
   void Check() const;
   static const OptionTable<MeasureOptions>& Table();

@@ -60,6 +60,14 @@ FrameDamage DetectDamage(const cv::Mat& disparity_px, const cv::Mat& left_image,
   const DepressionSegmentation seg = SegmentDepressions(relief, o.segment, area);
   f.labels = seg.labels;
   f.threshold_sigma = seg.threshold_sigma;
+  if (o.road.local_cell_px > 0 && seg.count > 0) {
+    // The local road correction, recomputed without the found depressions (grown by half a
+    // cell), no longer leans into large shallow damage: depths and rims are measured on it.
+    cv::Mat exclude;
+    const int r = std::max(1, o.road.local_cell_px / 2);
+    cv::dilate(f.labels != 0, exclude, cv::getStructuringElement(cv::MORPH_ELLIPSE, {2 * r + 1, 2 * r + 1}));
+    f.relief = ComputeRoadRelief(disparity_px, g, f.surface, o.road, exclude);
+  }
   ExtendToRim(f.labels, f.relief, o.segment.rim_depth_m);
   f.ms_segment = MsSince(t0);
 

@@ -69,6 +69,26 @@ void ExtendToRim(cv::Mat& labels, const RoadRelief& r, double rim_depth_m) {
   }
 }
 
+double CoreWidthM(const cv::Mat& labels, int id, const RoadRelief& r, const cv::Mat& pixel_area_m2,
+                  double min_depth_m) {
+  cv::Rect roi = cv::boundingRect(labels == id);
+  if (roi.empty()) return 0;
+  roi = cv::Rect(roi.x - 1, roi.y - 1, roi.width + 2, roi.height + 2) & cv::Rect({}, labels.size());
+  // NaN depth compares false: unmatched pixels are not part of the core.
+  const cv::Mat core = (labels(roi) == id) & (r.depth_below_mm(roi) >= min_depth_m * 1000.0);
+  cv::Mat padded, dist;
+  cv::copyMakeBorder(core, padded, 1, 1, 1, 1, cv::BORDER_CONSTANT, 0);
+  cv::distanceTransform(padded, dist, cv::DIST_L2, cv::DIST_MASK_5);
+  double best = 0;
+  for (int v = 0; v < core.rows; ++v)
+    for (int u = 0; u < core.cols; ++u) {
+      const float a = pixel_area_m2.at<float>(roi.y + v, roi.x + u);
+      const float dpx = dist.at<float>(v + 1, u + 1);
+      if (dpx > 0 && std::isfinite(a)) best = std::max(best, 2.0 * dpx * std::sqrt(double(a)));
+    }
+  return best;
+}
+
 std::vector<DamageInstance> MeasureDepressions(const cv::Mat& labels, const RoadRelief& r, const StereoGeometry& g,
                                                const RoadSurface& s, const MeasureOptions& o) {
   if (labels.type() != CV_16UC1 || labels.size() != r.depth_below_mm.size())
@@ -138,8 +158,11 @@ std::vector<DamageInstance> MeasureDepressions(const cv::Mat& labels, const Road
     for (size_t i = 0; i < ring.size(); ++i)
       for (size_t j = i + 1; j < ring.size(); ++j) dmax = std::max(dmax, (ring[i] - ring[j]).norm());
     d.max_diameter_m = dmax;
-    const bool deep = std::isfinite(d.max_depth_m) && d.max_depth_m >= o.pothole_min_depth_m;
-    d.type = deep && d.equivalent_diameter_m >= o.pothole_min_diameter_m ? DamageType::kPothole : DamageType::kOther;
+    const bool deep = std::isfinite(d.max_depth_m) && d.max_depth_m >= o.pothole_min_depth_m &&
+                      d.max_depth_m >= o.pothole_min_depth_sigma * d.sigma_depth_m;
+    const bool wide = deep && d.equivalent_diameter_m >= o.pothole_min_diameter_m &&
+                      CoreWidthM(labels, id, r, area, 0.5 * d.max_depth_m) >= o.pothole_min_core_width_m;
+    d.type = wide ? DamageType::kPothole : DamageType::kOther;
     // Confidence: how far the mean depth stands above the stereo noise (a 3σ_Z depression ≈ 0.99).
     d.confidence = std::isfinite(d.mean_depth_m) && d.sigma_depth_m > 0
                        ? 1.0 - std::exp(-0.5 * std::pow(std::max(0.0, d.mean_depth_m) / d.sigma_depth_m, 2))

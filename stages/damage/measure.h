@@ -23,11 +23,17 @@ void ExtendToRim(cv::Mat& labels, const RoadRelief& relief, double rim_depth_m);
 
 /// Measures every instance 1..max of a CV_16U label image. Invalid pixels inside an
 /// instance count for area and take the instance's mean depth for the volume.
-/// Type: pothole when max depth ≥ pothole_min_depth_m and equivalent diameter ≥
-/// pothole_min_diameter_m, otherwise other. Severity is not graded here.
+/// Type: pothole when max depth ≥ pothole_min_depth_m and ≥ pothole_min_depth_sigma · σ_Z, equivalent diameter ≥
+/// pothole_min_diameter_m and the half-max-depth core at least pothole_min_core_width_m
+/// wide (CoreWidthM), otherwise other. Severity is not graded here.
 std::vector<DamageInstance> MeasureDepressions(const cv::Mat& labels, const RoadRelief& relief,
                                                const StereoGeometry& geometry, const RoadSurface& surface,
                                                const MeasureOptions& options);
+
+/// Width (m) of the largest circle inscribed in the part of instance `id` at least
+/// `min_depth_m` below the road (pixel widths from `pixel_area_m2`); 0 when empty.
+double CoreWidthM(const cv::Mat& labels, int id, const RoadRelief& relief, const cv::Mat& pixel_area_m2,
+                  double min_depth_m);
 
 /// Outer boundary of one label as a polygon (pixel coordinates), simplified to 1 px.
 std::vector<cv::Point> OutlineOf(const cv::Mat& labels, int id);

@@ -1,6 +1,7 @@
 #include "stages/damage/road_surface.h"
 
 #include <Eigen/Dense>
+#include <opencv2/imgproc.hpp>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -155,8 +156,10 @@ RoadSurface FitRoadSurface(const cv::Mat& disparity_px, const StereoGeometry& g,
     for (size_t i = 0; i < pts.size(); ++i) {
       res[i] = h[i] - s.coeffs.dot(Monomials(st_s[i], st_t[i]));
       obstacle[i] = res[i] > o.obstacle_height_m;
-      // Start each round from the plane-band inliers: damage and obstacles start with zero weight.
-      w[i] = !obstacle[i] && std::abs(res[i]) < o.ransac_inlier_m ? 1.0 : 0.0;
+      // Start each round from the band inliers: damage and obstacles start with zero weight. The
+      // first round starts wider, so both lanes of a crowned (roof-shaped) road take part even
+      // when RANSAC's plane followed one of them.
+      w[i] = !obstacle[i] && std::abs(res[i]) < (round == 0 ? 2.0 : 1.0) * o.ransac_inlier_m ? 1.0 : 0.0;
     }
     for (int it = 0; it < o.irls_iterations; ++it) {
       Eigen::Matrix<double, 6, 6> AtA = Eigen::Matrix<double, 6, 6>::Zero();
@@ -175,7 +178,9 @@ RoadSurface FitRoadSurface(const cv::Mat& disparity_px, const StereoGeometry& g,
         res[i] = h[i] - s.coeffs.dot(Monomials(st_s[i], st_t[i]));
         if (!obstacle[i] && w[i] > 0) absr.push_back(std::abs(res[i]));
       }
-      sigma = std::max(o.min_noise_m, 1.4826 * Median(absr));
+      // First round: scale floored at the plane band (a wide Tukey window, graduated
+      // non-convexity); the second round shrinks to the data's own spread.
+      sigma = std::max(round == 0 ? o.ransac_inlier_m : o.min_noise_m, 1.4826 * Median(absr));
       for (size_t i = 0; i < pts.size(); ++i) {
         if (obstacle[i]) { w[i] = 0; continue; }
         const double x = res[i] / (kTukeyC * sigma);
@@ -189,8 +194,137 @@ RoadSurface FitRoadSurface(const cv::Mat& disparity_px, const StereoGeometry& g,
   return s;
 }
 
+namespace {
+
+// Per-cell median of depth below the model (mm) over road pixels within `band_mm` of `prior`
+// (full-resolution CV_32F); cells with too few such pixels are filled from their neighbours.
+cv::Mat CellMedians(const RoadRelief& r, const cv::Mat& prior, double band_mm, int cell) {
+  const int gw = (r.depth_below_mm.cols + cell - 1) / cell, gh = (r.depth_below_mm.rows + cell - 1) / cell;
+  cv::Mat grid(gh, gw, CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+  std::vector<float> vals;
+  for (int gy = 0; gy < gh; ++gy)
+    for (int gx = 0; gx < gw; ++gx) {
+      vals.clear();
+      int seen = 0;
+      for (int v = gy * cell; v < std::min((gy + 1) * cell, r.depth_below_mm.rows); v += 2)
+        for (int u = gx * cell; u < std::min((gx + 1) * cell, r.depth_below_mm.cols); u += 2) {
+          ++seen;
+          const float x = r.depth_below_mm.at<float>(v, u);
+          if (r.obstacle_mask.at<uchar>(v, u) || !std::isfinite(x)) continue;
+          if (std::abs(x - prior.at<float>(v, u)) < band_mm) vals.push_back(x);
+        }
+      if (vals.size() * 2 < static_cast<size_t>(seen) || vals.empty()) continue;
+      std::nth_element(vals.begin(), vals.begin() + vals.size() / 2, vals.end());
+      grid.at<float>(gy, gx) = vals[vals.size() / 2];
+    }
+  // Fill empty cells (damage, obstacles, no disparity) from their neighbours, ring by ring.
+  for (int pass = 0; pass < gw + gh; ++pass) {
+    cv::Mat next = grid.clone();
+    bool missing = false;
+    for (int y = 0; y < gh; ++y)
+      for (int x = 0; x < gw; ++x) {
+        if (std::isfinite(grid.at<float>(y, x))) continue;
+        double sum = 0;
+        int n = 0;
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx) {
+            const int yy = y + dy, xx = x + dx;
+            if (yy < 0 || xx < 0 || yy >= gh || xx >= gw) continue;
+            const float q = grid.at<float>(yy, xx);
+            if (std::isfinite(q)) sum += q, ++n;
+          }
+        if (n) next.at<float>(y, x) = static_cast<float>(sum / n);
+        else missing = true;
+      }
+    grid = next;
+    if (!missing) break;
+  }
+  cv::patchNaNs(grid, 0.0);
+  cv::blur(grid, grid, {3, 3}, {-1, -1}, cv::BORDER_REPLICATE);
+  cv::Mat full;
+  cv::resize(grid, full, {gw * cell, gh * cell}, 0, 0, cv::INTER_LINEAR);
+  return full(cv::Rect(0, 0, r.depth_below_mm.cols, r.depth_below_mm.rows)).clone();
+}
+
+// Robust spread (1.4826 · MAD, mm) of the road pixels' depth below the model after `corr`.
+double ResidualSpreadMm(const RoadRelief& r, const cv::Mat& corr) {
+  std::vector<float> e;
+  for (int v = 0; v < corr.rows; v += 4)
+    for (int u = 0; u < corr.cols; u += 4) {
+      const float x = r.depth_below_mm.at<float>(v, u);
+      if (!r.obstacle_mask.at<uchar>(v, u) && std::isfinite(x)) e.push_back(std::abs(x - corr.at<float>(v, u)));
+    }
+  if (e.empty()) return 0;
+  std::nth_element(e.begin(), e.begin() + e.size() / 2, e.end());
+  return 1.4826 * e[e.size() / 2];
+}
+
+void ApplyLocalCorrection(RoadRelief& r, const cv::Mat& disparity_px, const StereoGeometry& g, const RoadSurface& s,
+                          const RoadModelOptions& o, const cv::Mat& exclude) {
+  // Known damage is treated like an obstacle by the cell medians (restored below).
+  const cv::Mat obstacle = r.obstacle_mask.clone();
+  if (!exclude.empty()) r.obstacle_mask.setTo(255, exclude);
+  const cv::Mat zero = cv::Mat::zeros(r.depth_below_mm.size(), CV_32F);
+  const double band1 = std::clamp(4000.0 * s.residual_sigma_m, 6.0, 20.0);
+  const cv::Mat c1 = CellMedians(r, zero, band1, o.local_cell_px);
+  const double band2 = std::max(3.0 * ResidualSpreadMm(r, c1), 1000.0 * o.min_noise_m * 2.0);
+  r.correction_mm = CellMedians(r, c1, band2, o.local_cell_px);
+  r.obstacle_mask = obstacle;
+  const double fb = g.f_px * g.baseline_m;
+  tbb::parallel_for(0, r.correction_mm.rows, [&](int v) {
+    const float* c = r.correction_mm.ptr<float>(v);
+    const float* d = disparity_px.ptr<float>(v);
+    float* td = r.transformed_disparity_px.ptr<float>(v);
+    float* db = r.depth_below_mm.ptr<float>(v);
+    float* rz = r.road_depth_m.ptr<float>(v);
+    const uchar* va = r.valid_mask.ptr<uchar>(v);
+    const double y = (v - g.cy_px) / g.f_px;
+    for (int u = 0; u < r.correction_mm.cols; ++u) {
+      if (!std::isfinite(rz[u])) continue;
+      // Height of Z·ray above the plane changes by (n·ray) per metre of Z: lowering the road
+      // by c moves its ray intersection ΔZ = −c / (n·ray) further.
+      const double x = (u - g.cx_px) / g.f_px;
+      const double nr = s.normal.x() * x + s.normal.y() * y + s.normal.z();
+      if (std::abs(nr) < 1e-6) continue;
+      const double dz = -1e-3 * c[u] / nr;
+      if (!(rz[u] + dz > 0)) continue;
+      rz[u] = static_cast<float>(rz[u] + dz);
+      if (!va[u]) continue;
+      db[u] -= c[u];
+      td[u] = static_cast<float>(std::max(1e-3, d[u] - fb / rz[u] + o.delta_px));
+    }
+  });
+}
+
+// Normalised box filter over valid pixels (invalid pixels stay invalid and do not contribute).
+void SmoothRelief(RoadRelief& r, const RoadModelOptions& o) {
+  const cv::Size k(o.relief_smooth_px, o.relief_smooth_px);
+  cv::Mat w, wsum;
+  r.valid_mask.convertTo(w, CV_32F, 1.0 / 255.0);
+  cv::boxFilter(w, wsum, CV_32F, k, {-1, -1}, false, cv::BORDER_CONSTANT);
+  auto smooth = [&](cv::Mat& m, bool nan_invalid) {
+    cv::Mat x = m.clone();
+    x.setTo(0, r.valid_mask == 0);
+    cv::Mat xs;
+    cv::boxFilter(x, xs, CV_32F, k, {-1, -1}, false, cv::BORDER_CONSTANT);
+    cv::divide(xs, wsum, xs);
+    xs.copyTo(m, r.valid_mask);
+    if (nan_invalid) m.setTo(std::numeric_limits<float>::quiet_NaN(), r.valid_mask == 0);
+  };
+  smooth(r.depth_below_mm, true);
+  cv::Mat td = r.transformed_disparity_px;
+  smooth(td, false);
+  cv::max(r.transformed_disparity_px, 1e-3, td);  // valid stays > 0
+  td.setTo(0, r.valid_mask == 0);
+  r.transformed_disparity_px = td;
+}
+
+}  // namespace
+
 RoadRelief ComputeRoadRelief(const cv::Mat& disparity_px, const StereoGeometry& g, const RoadSurface& s,
-                             const RoadModelOptions& o) {
+                             const RoadModelOptions& o, const cv::Mat& exclude) {
+  if (!exclude.empty() && (exclude.type() != CV_8UC1 || exclude.size() != disparity_px.size()))
+    throw std::invalid_argument("road relief: exclude mask must be CV_8U of the disparity's size");
   if (!g.Valid()) throw std::invalid_argument("road relief: stereo geometry needs f > 0 and baseline > 0");
   if (disparity_px.type() != CV_32FC1) throw std::invalid_argument("road relief: disparity must be CV_32FC1");
   RoadRelief r;
@@ -258,6 +392,9 @@ RoadRelief ComputeRoadRelief(const cv::Mat& disparity_px, const StereoGeometry& 
       td[u] = static_cast<float>(std::max(1e-3, d[u] - fb / z_road + o.delta_px));
     }
   });
+  r.correction_mm = cv::Mat::zeros(size, CV_32F);
+  if (o.local_cell_px > 0) ApplyLocalCorrection(r, disparity_px, g, s, o, exclude);
+  if (o.relief_smooth_px > 1) SmoothRelief(r, o);
   return r;
 }
 

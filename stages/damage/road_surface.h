@@ -46,10 +46,18 @@ struct RoadRelief {
   cv::Mat road_depth_m;              ///< CV_32F: camera Z of the road surface along each pixel ray; NaN off-road
   cv::Mat obstacle_mask;             ///< CV_8U: 255 where the point is an obstacle above the road
   cv::Mat valid_mask;                ///< CV_8U: 255 where the disparity is valid
+  /// CV_32F: local correction (mm, > 0 = road below the quadratic) already applied to the
+  /// products above: true road height = quadratic − correction (zeros when off).
+  cv::Mat correction_mm;
 };
 
-/// Evaluates the model on every pixel.
+/// Evaluates the model on every pixel, then (local_cell_px > 0) corrects it locally: per cell,
+/// the median depth below the model of road pixels within a band (4 σ, damage and obstacles
+/// excluded; twice, the second band from the first pass' spread), empty cells filled from
+/// their neighbours, 3×3 smoothed, bilinearly interpolated.
+/// `exclude` (optional CV_8U, non-zero = known damage) is left out of the local correction.
 RoadRelief ComputeRoadRelief(const cv::Mat& disparity_px, const StereoGeometry& geometry,
-                             const RoadSurface& surface, const RoadModelOptions& options);
+                             const RoadSurface& surface, const RoadModelOptions& options,
+                             const cv::Mat& exclude = cv::Mat());
 
 }  // namespace rs

@@ -1,0 +1,391 @@
+#include "stages/damage/sim_damage_eval.h"
+
+#include "formats/geojson/geojson.h"
+#include "formats/input_error.h"
+#include "formats/stereo/calibration_yaml.h"
+#include "formats/trajectory/tum_trajectory.h"
+#include "stages/damage/damage_output.h"
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <ctime>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <set>
+#include <stdexcept>
+
+namespace rs {
+namespace fs = std::filesystem;
+namespace {
+
+struct TruthDamage {
+  std::string type;
+  double area_m2 = 0, max_depth_m = 0, volume_m3 = 0, mean_diameter_m = 0;
+  std::string severity;
+};
+
+struct TruthObstacle {
+  bool box = true;
+  Eigen::Vector3d centre, half;
+};
+
+double Num(const nlohmann::json& p, const char* key) {
+  return p.contains(key) && p[key].is_number() ? p[key].get<double>() : 0.0;
+}
+
+std::map<int, TruthDamage> ReadTruthDamages(const fs::path& path) {
+  const geojson::FeatureCollection fc = geojson::ReadFeatureCollection(path);
+  std::map<int, TruthDamage> out;
+  for (const auto& f : fc.features) {
+    const auto& p = f.properties;
+    if (!p.is_object() || !p.contains("id") || !p["id"].is_number_integer() || !p.contains("type"))
+      throw InputError(InputLocation::File(path.string()), "damage feature without integer id and type");
+    TruthDamage d;
+    d.type = p["type"].get<std::string>();
+    d.area_m2 = Num(p, "area_m2"), d.max_depth_m = Num(p, "max_depth_m"), d.volume_m3 = Num(p, "volume_m3");
+    d.mean_diameter_m = Num(p, "mean_diameter_m");
+    d.severity = p.contains("severity") && p["severity"].is_string() ? p["severity"].get<std::string>() : "";
+    out[p["id"].get<int>()] = d;
+  }
+  return out;
+}
+
+std::vector<TruthObstacle> ReadObstacles(const fs::path& path) {
+  std::ifstream in(path);
+  if (!in) throw InputError(InputLocation::File(path.string()), "cannot open");
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(in);
+  } catch (const nlohmann::json::parse_error& e) {
+    throw InputError(InputLocation::Byte(path.string(), e.byte), e.what());
+  }
+  std::vector<TruthObstacle> out;
+  if (!j.contains("obstacles")) return out;
+  for (const auto& o : j["obstacles"]) {
+    TruthObstacle t;
+    t.box = o.at("kind").get<std::string>() == "box";
+    const auto c = o.at("centre_enu_m").get<std::vector<double>>();
+    const auto h = o.at("half_size_m").get<std::vector<double>>();
+    if (c.size() != 3 || h.size() != 3) throw InputError(InputLocation::File(path.string()), "bad obstacle");
+    t.centre = {c[0], c[1], c[2]}, t.half = {h[0], h[1], h[2]};
+    out.push_back(t);
+  }
+  return out;
+}
+
+cv::Mat ReadPng(const fs::path& path, int type) {
+  const cv::Mat m = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
+  if (m.empty() || m.type() != type)
+    throw InputError(InputLocation::File(path.string()), type == CV_16UC1 ? "expected a 16-bit grey PNG"
+                                                                          : "expected an 8-bit grey image");
+  return m;
+}
+
+// World point of pixel (u, v) with disparity d (px) seen from pose T_world_cam.
+Eigen::Vector3d WorldPoint(const StereoGeometry& g, const Eigen::Isometry3d& T, double u, double v, double d) {
+  const double z = g.f_px * g.baseline_m / d;
+  return T * Eigen::Vector3d((u - g.cx_px) * z / g.f_px, (v - g.cy_px) * z / g.f_px, z);
+}
+
+// CV_8U mask of pixels whose truth surface point lies inside an obstacle (grown by margin_m).
+// Boxes are tested against their bounding cylinder (their yaw is not in scene.json) above
+// the box's base plus the margin, which keeps the road around a car out of the mask.
+cv::Mat ObstacleMask(const cv::Mat& truth_disp, const StereoGeometry& g, const Eigen::Isometry3d& T,
+                     const std::vector<TruthObstacle>& obstacles, double margin_m) {
+  cv::Mat mask(truth_disp.size(), CV_8U, cv::Scalar(0));
+  if (obstacles.empty()) return mask;
+  for (int v = 0; v < truth_disp.rows; ++v)
+    for (int u = 0; u < truth_disp.cols; ++u) {
+      const float d = truth_disp.at<float>(v, u);
+      if (!(d > 0)) continue;
+      const Eigen::Vector3d p = WorldPoint(g, T, u, v, d);
+      for (const auto& o : obstacles) {
+        const double base = o.box ? o.centre.z() - o.half.z() : o.centre.z();
+        const double radius = o.box ? std::hypot(o.half.x(), o.half.y()) : o.half.x();
+        if (std::hypot(p.x() - o.centre.x(), p.y() - o.centre.y()) <= radius + margin_m && p.z() > base + margin_m) {
+          mask.at<uchar>(v, u) = 255;
+          break;
+        }
+      }
+    }
+  return mask;
+}
+
+double Percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0;
+  const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * (v.size() - 1) + 0.5));
+  std::nth_element(v.begin(), v.begin() + k, v.end());
+  return v[k];
+}
+
+double MsSince(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+std::string LevelLetter(SeverityLevel l) {
+  switch (l) {
+    case SeverityLevel::kLow: return "L";
+    case SeverityLevel::kMedium: return "M";
+    case SeverityLevel::kHigh: return "H";
+    default: return "-";
+  }
+}
+
+}  // namespace
+
+ErrorStats ComputeErrorStats(std::vector<double> errors) {
+  ErrorStats s;
+  s.n = static_cast<int>(errors.size());
+  if (errors.empty()) return s;
+  double sum = 0;
+  std::vector<double> a;
+  for (double e : errors) sum += e, a.push_back(std::abs(e));
+  s.mean = sum / s.n;
+  s.median_abs = Percentile(a, 0.5);
+  s.p95_abs = Percentile(a, 0.95);
+  s.max_abs = *std::max_element(a.begin(), a.end());
+  return s;
+}
+
+SimDamageEvaluation EvaluateSimulatedDamage(const fs::path& dir, const SimDamageEvalOptions& o) {
+  o.damage.Check();
+  if (o.frame_step < 1 || o.max_frames < 0 || !(o.min_iou > 0 && o.min_iou <= 1))
+    throw std::invalid_argument("EvaluateSimulatedDamage: frame_step >= 1, max_frames >= 0, 0 < min_iou <= 1");
+  if (!o.use_truth_disparity) o.disparity.Check();
+  const StereoCalibration calib = ReadCalibrationYaml(dir / "calibration.yaml");
+  const StereoGeometry g{calib.left.fx, calib.left.cx, calib.left.cy, calib.BaselineM()};
+  const std::map<int, TruthDamage> truth = ReadTruthDamages(dir / "truth/damages.geojson");
+  const Trajectory traj = ReadTumTrajectory(dir / "truth/trajectory.tum");
+  const std::vector<TruthObstacle> obstacles = ReadObstacles(dir / "truth/scene.json");
+
+  std::vector<std::string> names;
+  for (const auto& e : fs::directory_iterator(dir / "left"))
+    if (e.path().extension() == ".png") names.push_back(e.path().stem().string());
+  std::sort(names.begin(), names.end());
+  if (names.size() != traj.poses.size())
+    throw InputError(InputLocation::File((dir / "truth/trajectory.tum").string()),
+                     fmt::format("{} poses for {} frames", traj.poses.size(), names.size()));
+
+  SimDamageEvaluation r;
+  std::vector<double> steps[4];
+  std::vector<double> ms_damage, cpu_damage, ms_disp, road_abs_mm, depth_mm, area_pct, volume_pct;
+  int within = 0, severity_ok = 0;
+  double sigma_sum = 0, valid_sum = 0;
+  std::set<int> unique;
+  for (size_t k = 0; k < names.size(); k += o.frame_step) {
+    if (o.max_frames > 0 && r.frames >= o.max_frames) break;
+    const std::string& name = names[k];
+    const cv::Mat left = ReadPng(dir / "left" / (name + ".png"), CV_8UC1);
+    const cv::Mat masks = ReadPng(dir / "truth/masks" / (name + ".png"), CV_16UC1);
+    cv::Mat truth_disp;
+    ReadPng(dir / "truth/disparity" / (name + ".png"), CV_16UC1).convertTo(truth_disp, CV_32F, 1.0 / 256.0);
+    cv::Mat disparity = truth_disp;
+    if (!o.use_truth_disparity) {
+      const cv::Mat right = ReadPng(dir / "right" / (name + ".png"), CV_8UC1);
+      const auto t0 = std::chrono::steady_clock::now();
+      DisparityResult dr = ComputeDisparity(left, right, o.disparity);
+      ms_disp.push_back(MsSince(t0));
+      disparity = dr.disparity;
+    }
+    valid_sum += cv::countNonZero(disparity > 0) / double(disparity.total());
+    r.width = left.cols, r.height = left.rows;
+    const auto t0 = std::chrono::steady_clock::now();
+    const std::clock_t c0 = std::clock();
+    const FrameDamage fd = DetectDamage(disparity, left, g, o.damage);
+    cpu_damage.push_back(1000.0 * double(std::clock() - c0) / CLOCKS_PER_SEC);
+    ms_damage.push_back(MsSince(t0));
+    steps[0].push_back(fd.ms_road), steps[1].push_back(fd.ms_segment), steps[2].push_back(fd.ms_measure);
+    steps[3].push_back(fd.ms_cracks);
+    ++r.frames;
+
+    const Eigen::Isometry3d& T = traj.poses[k].T_world_frame;
+    const cv::Mat obstacle = ObstacleMask(truth_disp, g, T, obstacles, o.obstacle_margin_m);
+
+    // Overlaps, areas, border contact, obstacle share: one pass over the frame.
+    std::map<int, long long> area_p, area_t, on_damage_p, on_obstacle_p;
+    std::map<int, double> z_sum_t;
+    std::map<std::pair<int, int>, long long> inter;
+    std::set<int> border_p, border_t;
+    const cv::Mat road_ok = fd.relief.valid_mask & (fd.relief.obstacle_mask == 0) & (obstacle == 0);
+    for (int v = 0; v < masks.rows; ++v) {
+      const uint16_t* tr = masks.ptr<uint16_t>(v);
+      const uint16_t* pr = fd.labels.ptr<uint16_t>(v);
+      const bool edge_row = v == 0 || v == masks.rows - 1;
+      for (int u = 0; u < masks.cols; ++u) {
+        const int t = tr[u], p = pr[u];
+        const bool edge = edge_row || u == 0 || u == masks.cols - 1;
+        if (t) {
+          ++area_t[t];
+          if (truth_disp.at<float>(v, u) > 0) z_sum_t[t] += g.f_px * g.baseline_m / truth_disp.at<float>(v, u);
+          if (edge) border_t.insert(t);
+        }
+        if (p) {
+          ++area_p[p];
+          if (edge) border_p.insert(p);
+          if (t) ++on_damage_p[p], ++inter[{p, t}];
+          if (obstacle.at<uchar>(v, u)) ++on_obstacle_p[p];
+        }
+        // Road model: the true intact road's height relative to the fitted surface.
+        if (!t && (u % 4 == 0) && (v % 4 == 0) && road_ok.at<uchar>(v, u) && truth_disp.at<float>(v, u) > 0) {
+          const double d = truth_disp.at<float>(v, u), z = g.f_px * g.baseline_m / d;
+          const Eigen::Vector3d pc((u - g.cx_px) * z / g.f_px, (v - g.cy_px) * z / g.f_px, z);
+          road_abs_mm.push_back(std::abs(1000.0 * fd.surface.DepthBelow(pc) - fd.relief.correction_mm.at<float>(v, u)));
+        }
+      }
+    }
+    auto scored = [&](int t) {
+      const auto it = truth.find(t);
+      return it != truth.end() && it->second.type == "pothole" && it->second.mean_diameter_m >= o.min_diameter_m &&
+             !border_t.count(t) && (o.max_range_m <= 0 || z_sum_t[t] / area_t[t] <= o.max_range_m);
+    };
+    std::map<int, const DamageInstance*> pothole_det;
+    for (const auto& d : fd.instances) {
+      if (on_obstacle_p[d.id] * 2 >= area_p[d.id] && area_p[d.id] > 0) ++r.obstacle_detections;
+      if (d.type == DamageType::kPothole) pothole_det[d.id] = &d;
+    }
+    // Greedy one-to-one matching by descending IoU between pothole detections and scored truth.
+    std::vector<std::tuple<double, int, int>> pairs;
+    for (const auto& [key, n] : inter) {
+      if (!pothole_det.count(key.first) || !scored(key.second)) continue;
+      const double iou = double(n) / double(area_p[key.first] + area_t[key.second] - n);
+      if (iou >= o.min_iou) pairs.emplace_back(iou, key.first, key.second);
+    }
+    std::sort(pairs.begin(), pairs.end(), [](const auto& a, const auto& b) { return std::get<0>(a) > std::get<0>(b); });
+    std::map<int, std::pair<int, double>> match_of_truth;  // truth id -> (detection id, IoU)
+    std::set<int> matched_p;
+    for (const auto& [iou, p, t] : pairs) {
+      if (matched_p.count(p) || match_of_truth.count(t)) continue;
+      matched_p.insert(p);
+      match_of_truth[t] = {p, iou};
+    }
+    bool debug_frame = false;
+    for (const auto& [p, d] : pothole_det) {
+      if (border_p.count(p) && !matched_p.count(p)) continue;  // cut by the frame: not scored
+      ++r.detections;
+      if (matched_p.count(p)) continue;
+      if (on_damage_p[p] * 2 >= area_p[p]) {
+        // Mostly on truth damage: either unscored damage (ignored) or a poor segmentation of a
+        // scored pothole (counted false).
+        long long on_scored = 0;
+        for (const auto& [key, n] : inter)
+          if (key.first == p && scored(key.second)) on_scored += n;
+        if (on_scored * 2 < on_damage_p[p]) {
+          ++r.ignored_detections;
+          continue;
+        }
+      }
+      ++r.false_positives;
+      const cv::Rect box = cv::boundingRect(fd.labels == p);
+      r.false_detections.push_back(fmt::format("{} #{}: {:.4f} m2, {:.1f} mm deep, {:.0f} % on damage, bbox {}x{}+{}+{}",
+                                               name, p, d->area_m2, 1000 * d->max_depth_m,
+                                               100.0 * on_damage_p[p] / area_p[p], box.width, box.height, box.x,
+                                               box.y));
+      debug_frame = true;
+    }
+    for (const auto& [t, n] : area_t) {
+      if (!scored(t)) continue;
+      const TruthDamage& td = truth.at(t);
+      PotholeObservation ob;
+      ob.frame = name, ob.truth_id = t;
+      ob.truth_max_depth_m = td.max_depth_m, ob.truth_area_m2 = td.area_m2, ob.truth_volume_m3 = td.volume_m3;
+      ob.truth_severity = td.severity;
+      ob.range_m = z_sum_t[t] / n;
+      unique.insert(t);
+      if (const auto m = match_of_truth.find(t); m != match_of_truth.end()) {
+        const DamageInstance& d = *pothole_det.at(m->second.first);
+        ob.detected = true, ob.iou = m->second.second;
+        ob.max_depth_m = d.max_depth_m, ob.area_m2 = d.area_m2, ob.volume_m3 = d.volume_m3;
+        ob.sigma_depth_m = d.sigma_depth_m, ob.astm = d.astm.level;
+        ++r.detected;
+        const double de = d.max_depth_m - td.max_depth_m;
+        depth_mm.push_back(1000.0 * de);
+        area_pct.push_back(100.0 * (d.area_m2 - td.area_m2) / td.area_m2);
+        volume_pct.push_back(100.0 * (d.volume_m3 - td.volume_m3) / td.volume_m3);
+        within += std::abs(de) <= 2.0 * d.sigma_depth_m;
+        sigma_sum += d.sigma_depth_m;
+        severity_ok += LevelLetter(d.astm.level) == td.severity;
+      }
+      debug_frame |= !ob.detected;
+      if (!ob.detected && !o.debug_dir.empty())
+        for (const auto& [key, n2] : inter)
+          if (key.second == t) {
+            const auto it = std::find_if(fd.instances.begin(), fd.instances.end(),
+                                         [&](const DamageInstance& d) { return d.id == key.first; });
+            std::cerr << name << " missed " << t << " (" << n << " px): overlaps #" << key.first << " by " << n2
+                      << " px of " << area_p[key.first] << ", type " << DamageTypeName(it->type) << ", depth "
+                      << it->max_depth_m << "\n";
+          }
+      r.observations.push_back(ob);
+    }
+    if (debug_frame && !o.debug_dir.empty()) {
+      fs::create_directories(o.debug_dir);
+      cv::Mat overlay = RenderOverlay(left, fd.labels, fd.instances);
+      for (const auto& [t, n] : area_t) {
+        std::vector<std::vector<cv::Point>> contours;
+        cv::findContours(masks == t, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_SIMPLE);
+        cv::drawContours(overlay, contours, -1, scored(t) ? cv::Scalar(0, 255, 0) : cv::Scalar(255, 255, 0), 1);
+      }
+      cv::imwrite((o.debug_dir / (name + ".png")).string(), overlay);
+      cv::Mat depth8;
+      fd.relief.depth_below_mm.convertTo(depth8, CV_8U, 5.0, 128.0);  // 0.2 mm per grey level, road = 128
+      cv::imwrite((o.debug_dir / (name + "_depth.png")).string(), depth8);
+      std::cerr << name << ": threshold " << fd.threshold_sigma << " sigma, road sigma "
+                << fd.surface.residual_sigma_m * 1000 << " mm, height " << fd.surface.camera_height_m << " m\n";
+    }
+  }
+  r.unique_potholes = static_cast<int>(unique.size());
+  r.recall = r.observations.empty() ? 0.0 : double(r.detected) / r.observations.size();
+  const int tp = r.detections - r.ignored_detections - r.false_positives;
+  r.precision = tp + r.false_positives > 0 ? double(tp) / (tp + r.false_positives) : 0.0;
+  r.depth_error_mm = ComputeErrorStats(depth_mm);
+  r.area_error_pct = ComputeErrorStats(area_pct);
+  r.volume_error_pct = ComputeErrorStats(volume_pct);
+  if (r.detected > 0) {
+    r.depth_within_2sigma = double(within) / r.detected;
+    r.mean_sigma_depth_mm = 1000.0 * sigma_sum / r.detected;
+    r.severity_agreement = double(severity_ok) / r.detected;
+  }
+  r.road_median_abs_mm = Percentile(road_abs_mm, 0.5);
+  r.disparity_valid_fraction = r.frames ? valid_sum / r.frames : 0.0;
+  r.ms_damage_median = Percentile(ms_damage, 0.5);
+  r.ms_damage_max = ms_damage.empty() ? 0 : *std::max_element(ms_damage.begin(), ms_damage.end());
+  r.ms_disparity_median = Percentile(ms_disp, 0.5);
+  r.cpu_ms_damage_median = Percentile(cpu_damage, 0.5);
+  r.ms_road_median = Percentile(steps[0], 0.5), r.ms_segment_median = Percentile(steps[1], 0.5);
+  r.ms_measure_median = Percentile(steps[2], 0.5), r.ms_cracks_median = Percentile(steps[3], 0.5);
+  return r;
+}
+
+std::string SimDamageEvaluation::Report() const {
+  auto stats = [](const ErrorStats& s, const char* unit) {
+    return fmt::format("bias {:+.1f}{u}, median |e| {:.1f}{u}, p95 {:.1f}{u}, max {:.1f}{u} (n {})", s.mean,
+                       s.median_abs, s.p95_abs, s.max_abs, s.n, fmt::arg("u", unit));
+  };
+  std::string s = fmt::format(
+      "{} frames {}x{}, disparity valid {:.1f} %\n"
+      "potholes scored: {} observations of {} potholes; recall {:.3f} ({}/{})\n"
+      "pothole detections {}: false {}, on unscored damage {}; precision {:.3f}\n"
+      "obstacle pixels reported as damage: {} detections\n"
+      "max depth error: {}; within 2 sigma_Z {:.1f} % (mean sigma_Z {:.1f} mm)\n"
+      "area error: {}\nvolume error: {}\n"
+      "severity (ASTM vs truth) agreement {:.1f} %\n"
+      "road model: median |true road - fitted| {:.2f} mm\n"
+      "time per frame: DetectDamage median {:.1f} ms wall (max {:.1f}), {:.1f} ms CPU (road {:.1f}, segment {:.1f}, measure {:.1f}, cracks {:.1f}); "
+      "disparity median {:.1f} ms",
+      frames, width, height, 100 * disparity_valid_fraction, observations.size(), unique_potholes, recall, detected,
+      observations.size(), detections, false_positives, ignored_detections, precision, obstacle_detections,
+      stats(depth_error_mm, " mm"), 100 * depth_within_2sigma, mean_sigma_depth_mm, stats(area_error_pct, " %"),
+      stats(volume_error_pct, " %"), 100 * severity_agreement, road_median_abs_mm, ms_damage_median, ms_damage_max,
+      cpu_ms_damage_median, ms_road_median, ms_segment_median, ms_measure_median, ms_cracks_median,
+      ms_disparity_median);
+  return s;
+}
+
+}  // namespace rs

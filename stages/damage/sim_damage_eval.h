@@ -1,0 +1,93 @@
+#pragma once
+// Evaluation of the damage pipeline on a `roadsurvey simulate` folder: per frame,
+// disparity (ours or the simulator's truth) -> DetectDamage, detected potholes
+// matched to the truth instance masks at IoU >= 0.5, measurements compared with
+// truth/damages.geojson, severity with the truth grade, obstacles checked.
+// Protocol and measured figures: docs/stages/damage.md ("Simulator evaluation").
+
+#include "stages/damage/damage_pipeline.h"
+#include "stages/disparity/disparity.h"
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace rs {
+
+/// What to evaluate and how.
+struct SimDamageEvalOptions {
+  bool use_truth_disparity = false;  ///< true: truth/disparity (isolates the damage stage); false: ComputeDisparity
+  DisparityParams disparity;         ///< used when use_truth_disparity is false
+  DamageOptions damage;
+  double min_diameter_m = 0.3;       ///< truth potholes at least this wide (mean_diameter_m) are scored
+  double min_iou = 0.5;              ///< detection ↔ truth mask IoU needed for a match
+  double max_range_m = 0;            ///< > 0: only potholes whose mean camera depth (truth) is nearer are scored
+  int frame_step = 1;                ///< evaluate every n-th frame
+  int max_frames = 0;                ///< 0 = all
+  double obstacle_margin_m = 0.05;   ///< truth obstacle volume grown by this much
+  /// Non-empty: writes overlays (truth outlines green/cyan) and depth images of frames with a miss
+  /// or a false detection there, and prints the road fit and overlaps of misses to stderr.
+  std::filesystem::path debug_dir;
+};
+
+/// One scored truth pothole in one frame.
+struct PotholeObservation {
+  std::string frame;
+  int truth_id = 0;
+  bool detected = false;  ///< matched by a pothole-typed detection
+  double iou = 0;
+  double truth_max_depth_m = 0, truth_area_m2 = 0, truth_volume_m3 = 0;
+  std::string truth_severity;  ///< "L", "M", "H"
+  double range_m = 0;          ///< mean camera depth Z of the pothole's pixels (truth disparity)
+  double max_depth_m = kUnknown, area_m2 = kUnknown, volume_m3 = kUnknown, sigma_depth_m = kUnknown;
+  SeverityLevel astm = SeverityLevel::kNone;
+};
+
+/// Distribution of an error over the matched observations.
+struct ErrorStats {
+  int n = 0;
+  double mean = 0;        ///< signed mean (bias)
+  double median_abs = 0;  ///< median |error|
+  double p95_abs = 0;     ///< 95th percentile |error|
+  double max_abs = 0;     ///< largest |error|
+};
+
+/// Aggregate over the evaluated frames.
+struct SimDamageEvaluation {
+  int frames = 0;
+  std::vector<PotholeObservation> observations;  ///< every scored (frame, truth pothole)
+  int unique_potholes = 0;                       ///< distinct truth ids among the observations
+  int detected = 0;                              ///< observations matched
+  int detections = 0;          ///< pothole-typed detections not touching the border
+  int false_positives = 0;     ///< of those: no match and < 50 % of pixels on any truth damage
+  int ignored_detections = 0;  ///< of those: on unscored truth damage (small potholes, cracks, patches)
+  int obstacle_detections = 0; ///< detections of any type with ≥ 50 % of their pixels on an obstacle
+  double recall = 0, precision = 0;
+  ErrorStats depth_error_mm;     ///< measured − truth max depth, mm
+  ErrorStats area_error_pct;     ///< (measured − truth) / truth area, %
+  ErrorStats volume_error_pct;   ///< (measured − truth) / truth volume, %
+  double depth_within_2sigma = 0;  ///< share of matches with |depth error| ≤ 2 σ_Z
+  double mean_sigma_depth_mm = 0;  ///< mean σ_Z of the matches, mm
+  double severity_agreement = 0;   ///< share of matches whose ASTM level equals the truth severity
+  double road_median_abs_mm = 0;   ///< median |height of the true intact road above the fitted surface|, mm
+  double disparity_valid_fraction = 0;  ///< mean share of valid disparities
+  double ms_damage_median = 0, ms_damage_max = 0;  ///< DetectDamage wall time per frame
+  double ms_disparity_median = 0;                  ///< ComputeDisparity wall time (0 with truth disparity)
+  double ms_road_median = 0, ms_segment_median = 0, ms_measure_median = 0, ms_cracks_median = 0;  ///< steps (wall)
+  double cpu_ms_damage_median = 0;  ///< DetectDamage process CPU time (all threads): the one-core bound
+  int width = 0, height = 0;
+  std::vector<std::string> false_detections;  ///< "frame id: area, depth, bbox" of each false positive
+  /// Multi-line human-readable summary of every figure above.
+  std::string Report() const;
+};
+
+/// Evaluates the survey folder written by Simulate() (needs left/, right/, calibration.yaml,
+/// truth/{masks,disparity,damages.geojson,trajectory.tum,scene.json}). Throws rs::InputError
+/// when a file is missing or malformed, std::invalid_argument on bad options.
+SimDamageEvaluation EvaluateSimulatedDamage(const std::filesystem::path& survey_dir,
+                                            const SimDamageEvalOptions& options);
+
+/// Statistics of a list of errors (empty: n = 0, all zero).
+ErrorStats ComputeErrorStats(std::vector<double> errors);
+
+}  // namespace rs

