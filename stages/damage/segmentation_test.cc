@@ -1,4 +1,5 @@
 #include "stages/damage/segmentation.h"
+#include "tests/support/test_data.h"
 
 #include "stages/damage/damage_eval.h"
 
@@ -15,10 +16,7 @@
 namespace rs {
 namespace {
 
-std::filesystem::path DataRoot() {
-  const char* env = std::getenv("ROADSURVEY_DATA");
-  return env ? std::filesystem::path(env) : std::filesystem::path(ROADSURVEY_DATA_DEFAULT);
-}
+std::filesystem::path DataRoot() { return rs::test::DataRoot(); }
 
 // Flat noisy road at `level` with two bowls below it; returns truth mask via `truth`.
 cv::Mat SyntheticRelief(int depth, double level, double sigma, double scale, cv::Mat* truth) {

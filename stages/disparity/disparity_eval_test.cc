@@ -1,4 +1,5 @@
 #include "stages/disparity/disparity_eval.h"
+#include "tests/support/test_data.h"
 
 #include <cstdlib>
 #include <filesystem>
@@ -11,10 +12,7 @@
 namespace rs {
 namespace {
 
-std::string DataRoot() {
-  const char* env = std::getenv("ROADSURVEY_DATA");
-  return env ? env : ROADSURVEY_DATA_DEFAULT;
-}
+std::string DataRoot() { return rs::test::DataRoot().string(); }
 
 TEST(DisparityEval, Nominal) {
   cv::Mat gt(1, 6, CV_32F), est(1, 6, CV_32F), valid(1, 6, CV_8U, cv::Scalar(255));

@@ -1,4 +1,5 @@
 #include "stages/disparity/disparity.h"
+#include "tests/support/test_data.h"
 
 #include <algorithm>
 #include <cstdio>
@@ -132,8 +133,7 @@ TEST(Disparity, PriorModel) {
 // Real asphalt (Fan et al. 2021, model3 pair 3 at half size): no truth disparity, so GPT-SGM is
 // checked against plain SGM over the full range, an independent search on the unwarped pair.
 TEST(Disparity, RealRoadAgreesWithPlainSgm) {
-  const char* env = std::getenv("ROADSURVEY_DATA");
-  const std::string dir = std::string(env ? env : ROADSURVEY_DATA_DEFAULT) + "/pothole_recon_fan2021/model3";
+  const std::string dir = (rs::test::DataRoot() / "pothole_recon_fan2021" / "model3").string();
   cv::Mat l = cv::imread(dir + "/left images/L3.png", cv::IMREAD_GRAYSCALE);
   cv::Mat r = cv::imread(dir + "/right images/R3.png", cv::IMREAD_GRAYSCALE);
   if (l.empty() || r.empty()) GTEST_SKIP() << "no pothole_recon_fan2021 data under " << dir << " (set ROADSURVEY_DATA)";

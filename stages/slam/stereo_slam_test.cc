@@ -1,4 +1,5 @@
 #include "stages/slam/stereo_slam.h"
+#include "tests/support/test_data.h"
 
 #include <cstdlib>
 #include <filesystem>
@@ -11,10 +12,7 @@
 namespace rs {
 namespace {
 
-std::filesystem::path DataDir() {
-  const char* env = std::getenv("ROADSURVEY_DATA");
-  return env ? env : ROADSURVEY_DATA_DEFAULT;
-}
+std::filesystem::path DataDir() { return rs::test::DataRoot(); }
 
 TEST(SlamOptions, Nominal) { EXPECT_NO_THROW(SlamOptions().Check()); }
 
