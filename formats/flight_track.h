@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -68,5 +69,10 @@ struct FlightTrack {
   std::vector<CameraEvent> camera_events;
   std::vector<std::string> notes;  ///< what the reader noticed (dialect, dropped records with reasons, ...)
 };
+
+/// Attitude at t_ns: normalized linear interpolation of the two bracketing
+/// samples (sign-aligned), exact at a sample; nothing outside the samples.
+/// `attitude` must be sorted by t_ns.
+std::optional<AttitudeSample> AttitudeAt(const std::vector<AttitudeSample>& attitude, int64_t t_ns);
 
 }  // namespace rs

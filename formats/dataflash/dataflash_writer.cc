@@ -54,27 +54,6 @@ double AmslM(double alt_m, AltitudeReference ref, double geoid_height_m, const c
       ref == AltitudeReference::kEllipsoid ? " (set DataflashWriteOptions::geoid_height_m)" : ""));
 }
 
-// Normalized linear interpolation of the bracketing attitude samples; false outside them.
-bool AttitudeAt(const std::vector<AttitudeSample>& att, int64_t t_ns, AttitudeSample* q) {
-  auto it = std::lower_bound(att.begin(), att.end(), t_ns, [](const AttitudeSample& a, int64_t t) { return a.t_ns < t; });
-  if (it == att.end()) return false;
-  if (it->t_ns == t_ns) {
-    *q = *it;
-    return true;
-  }
-  if (it == att.begin()) return false;
-  const AttitudeSample &a = *(it - 1), &b = *it;
-  const double u = static_cast<double>(t_ns - a.t_ns) / static_cast<double>(b.t_ns - a.t_ns);
-  const double s = a.qw * b.qw + a.qx * b.qx + a.qy * b.qy + a.qz * b.qz < 0 ? -u : u;
-  q->qw = (1 - u) * a.qw + s * b.qw;
-  q->qx = (1 - u) * a.qx + s * b.qx;
-  q->qy = (1 - u) * a.qy + s * b.qy;
-  q->qz = (1 - u) * a.qz + s * b.qz;
-  const double n = std::sqrt(q->qw * q->qw + q->qx * q->qx + q->qy * q->qy + q->qz * q->qz);
-  q->qw /= n, q->qx /= n, q->qy /= n, q->qz /= n;
-  return true;
-}
-
 /// Roll, pitch, yaw in centidegrees (ZYX Euler angles of body FRD in NED),
 /// yaw wrapped to 0..35999 as ArduPilot logs it.
 struct EulerCd {
@@ -186,8 +165,8 @@ void WriteDataflashTrack(std::ostream& out, const FlightTrack& track, const Data
     return std::isfinite(e.lat_deg) && std::isfinite(e.lon_deg);
   });
   const bool all_alt = std::all_of(events.begin(), events.end(), [](const CameraEvent& e) { return std::isfinite(e.alt_m); });
-  AttitudeSample probe;
-  const bool all_att = std::all_of(events.begin(), events.end(), [&](const CameraEvent& e) { return AttitudeAt(track.attitude, e.t_ns, &probe); });
+  const bool all_att = std::all_of(events.begin(), events.end(),
+                                   [&](const CameraEvent& e) { return AttitudeAt(track.attitude, e.t_ns).has_value(); });
 
   std::vector<std::pair<int64_t, std::string>> rows;
 
@@ -240,9 +219,7 @@ void WriteDataflashTrack(std::ostream& out, const FlightTrack& track, const Data
       cam.Put(alt_cm).Put(alt_cm);
     }
     if (all_att) {
-      AttitudeSample q;
-      AttitudeAt(track.attitude, e.t_ns, &q);
-      const EulerCd r = ToEulerCd(q);
+      const EulerCd r = ToEulerCd(*AttitudeAt(track.attitude, e.t_ns));  // all_att: every event has one
       cam.Put(r.roll).Put(r.pitch).Put(r.yaw);
     }
     cam.EndRow(boot_us(e.t_ns), &rows);

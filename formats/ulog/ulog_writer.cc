@@ -67,31 +67,6 @@ double AmslM(double alt_m, AltitudeReference ref, double geoid_height_m, const c
       ref == AltitudeReference::kEllipsoid ? " (set UlogWriteOptions::geoid_height_m)" : ""));
 }
 
-// Attitude at t_ns: normalized linear interpolation of the bracketing samples
-// (sign-aligned); nullopt outside the samples.
-bool AttitudeAt(const std::vector<AttitudeSample>& att, int64_t t_ns, double q[4]) {
-  auto it = std::lower_bound(att.begin(), att.end(), t_ns, [](const AttitudeSample& a, int64_t t) { return a.t_ns < t; });
-  if (it == att.end()) return false;
-  if (it->t_ns == t_ns) {
-    q[0] = it->qw, q[1] = it->qx, q[2] = it->qy, q[3] = it->qz;
-    return true;
-  }
-  if (it == att.begin()) return false;
-  const AttitudeSample& b = *it;
-  const AttitudeSample& a = *(it - 1);
-  const double u = static_cast<double>(t_ns - a.t_ns) / static_cast<double>(b.t_ns - a.t_ns);
-  const double sign = a.qw * b.qw + a.qx * b.qx + a.qy * b.qy + a.qz * b.qz < 0 ? -1.0 : 1.0;
-  const double qa[4] = {a.qw, a.qx, a.qy, a.qz}, qb[4] = {b.qw, b.qx, b.qy, b.qz};
-  double n = 0;
-  for (int i = 0; i < 4; ++i) {
-    q[i] = (1 - u) * qa[i] + u * sign * qb[i];
-    n += q[i] * q[i];
-  }
-  n = std::sqrt(n);
-  for (int i = 0; i < 4; ++i) q[i] /= n;
-  return true;
-}
-
 /// A data record waiting to be written, ordered by boot time.
 struct Record {
   int64_t boot_us;
@@ -166,7 +141,7 @@ void WriteUlogTrack(std::ostream& out, const FlightTrack& track, const UlogWrite
   }
   for (const CameraEvent& e : track.camera_events) {
     double q[4] = {kNaN, kNaN, kNaN, kNaN};
-    AttitudeAt(track.attitude, e.t_ns, q);
+    if (const auto a = AttitudeAt(track.attitude, e.t_ns)) q[0] = a->qw, q[1] = a->qx, q[2] = a->qy, q[3] = a->qz;
     Bytes b;
     b.Put<uint64_t>(static_cast<uint64_t>(boot_us(e.t_ns)));
     b.Put<uint64_t>(utc ? static_cast<uint64_t>(RoundUs(e.t_ns)) : 0);
