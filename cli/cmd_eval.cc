@@ -17,6 +17,7 @@
 #include "formats/input_error.h"
 #include "formats/trajectory/trajectory_file.h"
 #include "stages/damage/damage_eval.h"
+#include "stages/damage/sim_damage_eval.h"
 #include "stages/disparity/disparity_eval.h"
 #include "stages/disparity/disparity_io.h"
 #include "stages/slam/trajectory_report.h"
@@ -355,6 +356,28 @@ int RunEvalTrajectory(const TrajectoryArgs& a) {
   return kExitOk;
 }
 
+// ---------------------------------------------------------------- simulated survey (damage end to end)
+
+struct SimDamageArgs {
+  std::string survey_dir;
+  bool truth_disparity = false;
+  int step = 1, max_frames = 0;
+  double max_range_m = 0, min_diameter_m = 0.3;
+};
+
+int RunEvalSimulatedDamage(const SimDamageArgs& a) {
+  SimDamageEvalOptions o;
+  o.use_truth_disparity = a.truth_disparity;
+  o.frame_step = a.step;
+  o.max_frames = a.max_frames;
+  o.max_range_m = a.max_range_m;
+  o.min_diameter_m = a.min_diameter_m;
+  SimDamageEvaluation e;
+  CheckAsOption([&] { e = EvaluateSimulatedDamage(a.survey_dir, o); });
+  fmt::print("{}\n", e.Report());
+  return kExitOk;
+}
+
 }  // namespace
 
 Command EvalCommand() {
@@ -404,7 +427,22 @@ Command EvalCommand() {
             traj->add_option("--kitti-times", t->kitti_times, "times.txt for KITTI-format inputs (seconds per line)");
             traj->add_option("--json", t->json, "write the report as JSON ('-' = stdout)");
 
+            auto sd = std::make_shared<SimDamageArgs>();
+            CLI::App* sim = app.add_subcommand(
+                "damage-sim", "a simulated survey end to end: disparity + damage vs the simulator's truth potholes");
+            sim->add_option("survey", sd->survey_dir, "folder written by `roadsurvey simulate`")->required();
+            sim->add_flag("--truth-disparity", sd->truth_disparity,
+                          "use truth/disparity instead of computing it (isolates the damage stage)");
+            sim->add_option("--step", sd->step, "evaluate every n-th frame")->check(CLI::PositiveNumber);
+            sim->add_option("--max-frames", sd->max_frames, "at most this many frames (0 = all)")
+                ->check(CLI::NonNegativeNumber);
+            sim->add_option("--max-range", sd->max_range_m, "only potholes nearer than this camera depth, m (0 = all)")
+                ->check(CLI::NonNegativeNumber);
+            sim->add_option("--min-diameter", sd->min_diameter_m, "truth potholes at least this wide are scored, m")
+                ->check(CLI::PositiveNumber);
+
             return [=] {
+              if (sim->parsed()) return RunEvalSimulatedDamage(*sd);
               if (disp->parsed()) return RunEvalDisparity(*d);
               if (dmg->parsed()) return RunEvalDamage(*g);
               return RunEvalTrajectory(*t);

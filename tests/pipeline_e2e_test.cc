@@ -227,6 +227,14 @@ TEST_F(PipelineE2E, StatusReportsLastRun) {
   EXPECT_EQ(RunProgram("status " + (root_ / "survey").string()).exit_code, 2) << "not an output folder";
 }
 
+TEST_F(PipelineE2E, EvalSimulatedDamage) {
+  const auto r = RunProgram("eval damage-sim " + (root_ / "survey").string() + " --truth-disparity --max-frames 4");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("recall"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("severity"), std::string::npos) << r.output;
+  EXPECT_EQ(RunProgram("eval damage-sim " + (root_ / "nowhere").string()).exit_code, 2);
+}
+
 TEST_F(PipelineE2E, ExitCodes) {
   EXPECT_EQ(RunProgram("").exit_code, 2) << "no subcommand";
   EXPECT_EQ(RunProgram("frobnicate").exit_code, 2);

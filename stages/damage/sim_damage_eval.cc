@@ -140,8 +140,8 @@ std::string LevelLetter(SeverityLevel l) {
 
 }  // namespace
 
-ErrorStats ComputeErrorStats(std::vector<double> errors) {
-  ErrorStats s;
+DamageErrorStats ComputeDamageErrorStats(std::vector<double> errors) {
+  DamageErrorStats s;
   s.n = static_cast<int>(errors.size());
   if (errors.empty()) return s;
   double sum = 0;
@@ -344,9 +344,9 @@ SimDamageEvaluation EvaluateSimulatedDamage(const fs::path& dir, const SimDamage
   r.recall = r.observations.empty() ? 0.0 : double(r.detected) / r.observations.size();
   const int tp = r.detections - r.ignored_detections - r.false_positives;
   r.precision = tp + r.false_positives > 0 ? double(tp) / (tp + r.false_positives) : 0.0;
-  r.depth_error_mm = ComputeErrorStats(depth_mm);
-  r.area_error_pct = ComputeErrorStats(area_pct);
-  r.volume_error_pct = ComputeErrorStats(volume_pct);
+  r.depth_error_mm = ComputeDamageErrorStats(depth_mm);
+  r.area_error_pct = ComputeDamageErrorStats(area_pct);
+  r.volume_error_pct = ComputeDamageErrorStats(volume_pct);
   if (r.detected > 0) {
     r.depth_within_2sigma = double(within) / r.detected;
     r.mean_sigma_depth_mm = 1000.0 * sigma_sum / r.detected;
@@ -364,7 +364,7 @@ SimDamageEvaluation EvaluateSimulatedDamage(const fs::path& dir, const SimDamage
 }
 
 std::string SimDamageEvaluation::Report() const {
-  auto stats = [](const ErrorStats& s, const char* unit) {
+  auto stats = [](const DamageErrorStats& s, const char* unit) {
     return fmt::format("bias {:+.1f}{u}, median |e| {:.1f}{u}, p95 {:.1f}{u}, max {:.1f}{u} (n {})", s.mean,
                        s.median_abs, s.p95_abs, s.max_abs, s.n, fmt::arg("u", unit));
   };

@@ -44,7 +44,7 @@ struct PotholeObservation {
 };
 
 /// Distribution of an error over the matched observations.
-struct ErrorStats {
+struct DamageErrorStats {
   int n = 0;
   double mean = 0;        ///< signed mean (bias)
   double median_abs = 0;  ///< median |error|
@@ -63,9 +63,9 @@ struct SimDamageEvaluation {
   int ignored_detections = 0;  ///< of those: on unscored truth damage (small potholes, cracks, patches)
   int obstacle_detections = 0; ///< detections of any type with ≥ 50 % of their pixels on an obstacle
   double recall = 0, precision = 0;
-  ErrorStats depth_error_mm;     ///< measured − truth max depth, mm
-  ErrorStats area_error_pct;     ///< (measured − truth) / truth area, %
-  ErrorStats volume_error_pct;   ///< (measured − truth) / truth volume, %
+  DamageErrorStats depth_error_mm;     ///< measured − truth max depth, mm
+  DamageErrorStats area_error_pct;     ///< (measured − truth) / truth area, %
+  DamageErrorStats volume_error_pct;   ///< (measured − truth) / truth volume, %
   double depth_within_2sigma = 0;  ///< share of matches with |depth error| ≤ 2 σ_Z
   double mean_sigma_depth_mm = 0;  ///< mean σ_Z of the matches, mm
   double severity_agreement = 0;   ///< share of matches whose ASTM level equals the truth severity
@@ -88,6 +88,6 @@ SimDamageEvaluation EvaluateSimulatedDamage(const std::filesystem::path& survey_
                                             const SimDamageEvalOptions& options);
 
 /// Statistics of a list of errors (empty: n = 0, all zero).
-ErrorStats ComputeErrorStats(std::vector<double> errors);
+DamageErrorStats ComputeDamageErrorStats(std::vector<double> errors);
 
 }  // namespace rs

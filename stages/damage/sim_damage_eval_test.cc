@@ -86,12 +86,12 @@ TEST(SimDamageEval, DISABLED_DoneWhenComputedDisparity) {
   ExpectDoneWhen(EvaluateSimulatedDamage(RenderSmall("drone-low", 20, 3), SimDamageEvalOptions()));
 }
 
-TEST(SimDamageEval, ErrorStats) {
-  const ErrorStats s = ComputeErrorStats({1, -3, 2, -4});
+TEST(SimDamageEval, DamageErrorStats) {
+  const DamageErrorStats s = ComputeDamageErrorStats({1, -3, 2, -4});
   EXPECT_EQ(s.n, 4);
   EXPECT_DOUBLE_EQ(s.mean, -1.0);
   EXPECT_DOUBLE_EQ(s.max_abs, 4.0);
-  EXPECT_EQ(ComputeErrorStats({}).n, 0);
+  EXPECT_EQ(ComputeDamageErrorStats({}).n, 0);
 }
 
 TEST(SimDamageEval, MissingFolder) {
