@@ -15,6 +15,7 @@
 #include "stages/damage/damage_pipeline.h"
 #include "stages/disparity/disparity_benchmark.h"
 #include "stages/disparity/disparity_io.h"
+#include "stages/disparity/sim_disparity_eval.h"
 #include "stages/simulate/simulate.h"
 #include "stages/simulate/simulation_options.h"
 
@@ -62,7 +63,8 @@ Command BenchCommand() {
             app.option_defaults()->always_capture_default();
             app.require_subcommand(1);
             struct DispArgs {
-              std::vector<std::string> pairs;
+              std::vector<std::string> pairs, sims;
+              int sim_step = 1, sim_frames = 0;
               std::string middlebury, synthetic, only;
               int repeat = 3, threads = 0, min_disparity = 0, num_disparities = 128;
             };
@@ -70,6 +72,11 @@ Command BenchCommand() {
             CLI::App* disp = app.add_subcommand(
                 "disparity", "our GPT-SGM and SGM vs OpenCV SGBM and SGBM_3WAY: time per pair and accuracy");
             disp->add_option("pairs", d->pairs, "LEFT,RIGHT,GT triples (rectified images, KITTI 16-bit truth)");
+            disp->add_option("--sim", d->sims,
+                             "`roadsurvey simulate` folder(s): road D1 and pothole error per survey (docs/stages/disparity.md)");
+            disp->add_option("--sim-step", d->sim_step, "every n-th frame of --sim")->check(CLI::Range(1, 100000));
+            disp->add_option("--sim-frames", d->sim_frames, "at most this many frames per --sim (0 = all)")
+                ->check(CLI::NonNegativeNumber);
             disp->add_option("--middlebury", d->middlebury, "folder with the four Middlebury pairs (shared/data/middlebury)");
             disp->add_option("--synthetic", d->synthetic,
                              "synthetic road pair of this size, WxH (default 1280x720 when nothing else is given)");
@@ -98,7 +105,8 @@ Command BenchCommand() {
               int frames = 5;
             };
             auto g = std::make_shared<DmgArgs>();
-            CLI::App* dmg = app.add_subcommand("damage", "per-frame damage detection time on a synthetic disparity map");
+            CLI::App* dmg = app.add_subcommand(
+                "damage", "per-frame damage stage time on a synthetic frame (potholes, slab, cracks, noisy disparity)");
             dmg->add_option("--size", g->size, "frame size, WxH");
             dmg->add_option("--frames", g->frames, "frames timed (the median is reported)")->check(CLI::Range(1, 10000));
 
@@ -106,6 +114,12 @@ Command BenchCommand() {
               if (disp->parsed()) {
                 std::vector<StereoPairWithTruth> pairs;
                 for (const auto& spec : d->pairs) pairs.push_back(LoadUserPair(spec, d->min_disparity, d->num_disparities));
+                for (const auto& dir : d->sims) {
+                  SimulatedPairOptions so;
+                  so.frame_step = d->sim_step, so.max_frames = d->sim_frames;
+                  auto sp = LoadSimulatedSurvey(dir, so);
+                  pairs.insert(pairs.end(), sp.begin(), sp.end());
+                }
                 if (!d->middlebury.empty()) {
                   auto mb = LoadMiddlebury(d->middlebury);
                   pairs.insert(pairs.end(), mb.begin(), mb.end());
@@ -119,6 +133,7 @@ Command BenchCommand() {
                 const DisparityParams ours;
                 const auto results = RunDisparityBenchmark(pairs, ours, d->repeat, d->only);
                 fmt::print("{}\n{}\n", FormatBenchmarkTable(results), FormatStepTimes(results));
+                if (!d->sims.empty()) fmt::print("{}\n", FormatRoadAccuracyTable(results));
                 fmt::print("{} threads, median of {} runs per method and pair\n", threads, d->repeat);
                 for (const auto& r : results)
                   if (r.Find("sgbm-3way") && r.Find("gpt-sgm"))
@@ -136,6 +151,7 @@ Command BenchCommand() {
                 fmt::print("| {} | {}x{} | {} | {} | {:.2f} | {:.2f} | {:.2f} |\n", s->preset, options.image_width,
                            options.image_height, s->pairs, b.threads, b.pairs_per_s, b.pairs_per_cpu_s,
                            b.PairsPerSecondOnIdleCores());
+                fmt::print("{}; load average {:.1f}\n", RenderBenchmark::Includes(), b.load_average);
                 return kExitOk;
               }
               const cv::Size size = ParseImageSize(g->size, "--size");
@@ -144,6 +160,10 @@ Command BenchCommand() {
                          "|---|---|---|---|---|\n");
               fmt::print("| {}x{} | {} | {:.1f} | {:.1f} | {:.1f} |\n", size.width, size.height, g->frames, b.wall_ms,
                          b.cpu_ms, b.wall_ms > 0 ? 1000.0 / b.wall_ms : 0.0);
+              fmt::print("steps (wall ms): road {:.1f}, segment {:.1f}, measure {:.1f}, cracks {:.1f}, overlay + JSON {:.1f}; "
+                         "PNG encoding {:.1f} (not included)\nframe: {} potholes, {} cracks, {} other\n",
+                         b.road_ms, b.segment_ms, b.measure_ms, b.cracks_ms, b.outputs_ms, b.encode_ms, b.potholes,
+                         b.cracks, b.others);
               return kExitOk;
             };
           }};

@@ -20,6 +20,7 @@
 #include "stages/damage/sim_damage_eval.h"
 #include "stages/disparity/disparity_eval.h"
 #include "stages/disparity/disparity_io.h"
+#include "stages/slam/trajectory_plot.h"
 #include "stages/slam/trajectory_report.h"
 
 namespace rs {
@@ -36,27 +37,6 @@ cv::Mat ReadKitti(const fs::path& path, cv::Mat* valid) {
   FromKittiDisparity16(png, &d, &v);
   if (valid) *valid = v;
   return d;
-}
-
-/// Pools per-file metrics as if all pixels were one image: plain fields weigh by evaluated
-/// pixels, *_est and EPE by valid estimates.
-DisparityMetrics Pool(const std::vector<DisparityMetrics>& parts) {
-  DisparityMetrics t;
-  double n_valid = 0;
-  for (const auto& m : parts) {
-    const double n = double(m.evaluated), k = m.density * n;
-    t.evaluated += m.evaluated, n_valid += k;
-    t.bad1 += m.bad1 * n, t.bad2 += m.bad2 * n, t.bad3 += m.bad3 * n, t.d1 += m.d1 * n;
-    t.bad1_est += m.bad1_est * k, t.bad2_est += m.bad2_est * k, t.bad3_est += m.bad3_est * k;
-    t.d1_est += m.d1_est * k, t.epe += m.epe * k;
-  }
-  if (t.evaluated == 0) return DisparityMetrics{};
-  const double n = double(t.evaluated);
-  t.density = n_valid / n;
-  t.bad1 /= n, t.bad2 /= n, t.bad3 /= n, t.d1 /= n;
-  if (n_valid > 0) t.bad1_est /= n_valid, t.bad2_est /= n_valid, t.bad3_est /= n_valid, t.d1_est /= n_valid,
-                   t.epe /= n_valid;
-  return t;
 }
 
 nlohmann::json ToJson(const DisparityMetrics& m) {
@@ -114,15 +94,15 @@ int RunEvalDisparity(const DisparityArgs& a) {
     }
     files.push_back(std::move(f));
   }
-  nlohmann::json total = {{"all", ToJson(Pool(all))}};
-  if (pairs.size() > 1) table += Row(fmt::format("TOTAL ({} files)", pairs.size()), "all", Pool(all));
+  nlohmann::json total = {{"all", ToJson(PoolMetrics(all))}};
+  if (pairs.size() > 1) table += Row(fmt::format("TOTAL ({} files)", pairs.size()), "all", PoolMetrics(all));
   if (!nocs.empty()) {
-    total["nonocc"] = ToJson(Pool(nonocc));
-    if (pairs.size() > 1) table += Row("", "noc", Pool(nonocc));
+    total["nonocc"] = ToJson(PoolMetrics(nonocc));
+    if (pairs.size() > 1) table += Row("", "noc", PoolMetrics(nonocc));
   }
   if (!masks.empty()) {
-    total["mask"] = ToJson(Pool(masked));
-    if (pairs.size() > 1) table += Row("", "mask", Pool(masked));
+    total["mask"] = ToJson(PoolMetrics(masked));
+    if (pairs.size() > 1) table += Row("", "mask", PoolMetrics(masked));
   }
   if (a.json != "-") fmt::print("{}", table);
   if (a.json != "-") fmt::print("bad-N, D1: share of truth pixels with |d - gt| > N px (D1: > 3 px and > 5 %) or no estimate; "
@@ -323,7 +303,7 @@ int64_t SecondsToNs(double s, const std::string& flag) {
 }
 
 struct TrajectoryArgs {
-  std::string est, gt, align = "se3", format = "auto", gt_format = "auto", kitti_times, json;
+  std::string est, gt, align = "se3", format = "auto", gt_format = "auto", kitti_times, json, plot;
   bool by_index = false;
   double max_time_diff_s = 0.02, time_offset_s = 0;
   std::string rde_delta = "1", rpe_delta = "1";
@@ -353,6 +333,14 @@ int RunEvalTrajectory(const TrajectoryArgs& a) {
   const TrajectoryEvalReport report = EvaluateTrajectory(est, gt, o);
   if (a.json != "-") fmt::print("{}", FormatTrajectoryEvalTable(report));
   if (!a.json.empty()) WriteTextOutput(a.json, TrajectoryEvalReportToJson(report).dump(2) + "\n");
+  if (!a.plot.empty()) {
+    const PosePairs pairs = o.associate_by_index ? AssociateByIndex(est, gt)
+                                                 : AssociateByTimestamp(est, gt, o.max_time_difference_ns,
+                                                                        o.est_time_offset_ns);
+    TrajectoryPlotOptions po;
+    po.title = fmt::format("{} vs {} ({} alignment)", a.est, a.gt, a.align);
+    WriteTrajectoryPlot(a.plot, pairs, report.ate.alignment, po);
+  }
   return kExitOk;
 }
 
@@ -426,6 +414,7 @@ Command EvalCommand() {
             traj->add_option("--gt-format", t->gt_format, "truth format")->check(CLI::IsMember(formats));
             traj->add_option("--kitti-times", t->kitti_times, "times.txt for KITTI-format inputs (seconds per line)");
             traj->add_option("--json", t->json, "write the report as JSON ('-' = stdout)");
+            traj->add_option("--plot", t->plot, "write a PNG: top view of both paths after alignment, ATE over time");
 
             auto sd = std::make_shared<SimDamageArgs>();
             CLI::App* sim = app.add_subcommand(
@@ -436,7 +425,7 @@ Command EvalCommand() {
             sim->add_option("--step", sd->step, "evaluate every n-th frame")->check(CLI::PositiveNumber);
             sim->add_option("--max-frames", sd->max_frames, "at most this many frames (0 = all)")
                 ->check(CLI::NonNegativeNumber);
-            sim->add_option("--max-range", sd->max_range_m, "only potholes nearer than this camera depth, m (0 = all)")
+            sim->add_option("--max-range", sd->max_range_m, "only potholes nearer than this camera depth, m (0 = the damage stage's analysed range)")
                 ->check(CLI::NonNegativeNumber);
             sim->add_option("--min-diameter", sd->min_diameter_m, "truth potholes at least this wide are scored, m")
                 ->check(CLI::PositiveNumber);

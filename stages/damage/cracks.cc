@@ -107,7 +107,7 @@ CrackDetection DetectCracks(const cv::Mat& image, const cv::Mat& road_mask, cons
       d.max_width_m = wmax_m;
     }
     out.labels(box).setTo(d.id, comp);
-    d.outline_px = OutlineOf(out.labels, d.id);
+    d.outline_px = OutlineOf(out.labels, d.id, box);
     out.instances.push_back(std::move(d));
   }
   return out;

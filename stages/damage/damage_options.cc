@@ -23,6 +23,8 @@ void RoadModelOptions::Check() const {
   Require(delta_px >= 0, "delta_px", delta_px, ">=", "0", 0);
   Require(local_cell_px >= 0, "local_cell_px", local_cell_px, ">=", "0", 0);
   Require(relief_smooth_px >= 1, "relief_smooth_px", relief_smooth_px, ">=", "1", 1);
+  Require(max_depth_sigma_m >= 0, "max_depth_sigma_m", max_depth_sigma_m, ">=", "0", 0);
+  Require(min_range_factor >= 1, "min_range_factor", min_range_factor, ">=", "1", 1);
 }
 
 const OptionTable<RoadModelOptions>& RoadModelOptions::Table() {
@@ -38,6 +40,12 @@ const OptionTable<RoadModelOptions>& RoadModelOptions::Table() {
       .Add("random_seed", &O::random_seed, "RANSAC sampling seed").Min(0)
       .Add("local_cell_px", &O::local_cell_px, "cell of the local road-model correction (0 = off)", "px").Min(0)
       .Add("relief_smooth_px", &O::relief_smooth_px, "box filter of the relief against stereo noise (1 = off)", "px")
+      .Min(1)
+      .Add("max_depth_sigma_m", &O::max_depth_sigma_m,
+           "analysed range: drop disparities whose depth uncertainty sigma_Z exceeds this (0 = all)", "m")
+      .Min(0)
+      .Add("min_range_factor", &O::min_range_factor,
+           "the analysed range reaches at least this multiple of the frame's nearest road depth")
       .Min(1);
   return table;
 }
@@ -55,6 +63,7 @@ void SegmentOptions::Check() const {
           "in", "(0, 1]", 1);
   Require(morph_radius_px >= 0, "morph_radius_px", morph_radius_px, ">=", "0", 0);
   Require(rim_depth_m > 0, "rim_depth_m", rim_depth_m, ">", "0", 0);
+  Require(rim_depth_fraction >= 0 && rim_depth_fraction < 1, "rim_depth_fraction", rim_depth_fraction, "in", "[0, 1)", 0);
   Require(min_area_m2 >= 0, "min_area_m2", min_area_m2, ">=", "0", 0);
   Require(min_area_px >= 1, "min_area_px", min_area_px, ">=", "1", 1);
 }
@@ -72,7 +81,9 @@ const OptionTable<SegmentOptions>& SegmentOptions::Table() {
       .Add("invalid_fill_fraction", &O::invalid_fill_fraction, "border fraction of damage that absorbs an unmatched patch")
       .Above(0).Max(1)
       .Add("morph_radius_px", &O::morph_radius_px, "opening/closing radius", "px").Min(0)
-      .Add("rim_depth_m", &O::rim_depth_m, "calibrated rim extension depth", "m").Above(0)
+      .Add("rim_depth_m", &O::rim_depth_m, "calibrated rim extension depth, floor of the local road noise threshold", "m").Above(0)
+      .Add("rim_depth_fraction", &O::rim_depth_fraction, "calibrated rim threshold at least this fraction of the instance's depth")
+      .Min(0).Below(1)
       .Add("min_area_m2", &O::min_area_m2, "smallest damage kept (calibrated)", "m2").Min(0)
       .Add("min_area_px", &O::min_area_px, "smallest damage kept (uncalibrated)", "px").Min(1);
   return table;
@@ -108,6 +119,8 @@ void MeasureOptions::Check() const {
   Require(pothole_min_depth_m >= 0, "pothole_min_depth_m", pothole_min_depth_m, ">=", "0", 0);
   Require(pothole_min_diameter_m >= 0, "pothole_min_diameter_m", pothole_min_diameter_m, ">=", "0", 0);
   Require(pothole_min_core_width_m >= 0, "pothole_min_core_width_m", pothole_min_core_width_m, ">=", "0", 0);
+  Require(pothole_min_compactness >= 0 && pothole_min_compactness <= 1, "pothole_min_compactness",
+          pothole_min_compactness, "in", "[0, 1]", 0);
   Require(pothole_min_depth_sigma >= 0, "pothole_min_depth_sigma", pothole_min_depth_sigma, ">=", "0", 0);
   Require(depth_percentile > 0.5 && depth_percentile <= 1, "depth_percentile", depth_percentile, "in", "(0.5, 1]",
           0);
@@ -122,6 +135,9 @@ const OptionTable<MeasureOptions>& MeasureOptions::Table() {
       .Add("pothole_min_core_width_m", &O::pothole_min_core_width_m,
            "depressions whose half-max-depth core is narrower are 'other' (cracks)", "m")
       .Min(0)
+      .Add("pothole_min_compactness", &O::pothole_min_compactness,
+           "depressions with area / (pi/4 max diameter^2) below this are 'other' (elongated: cracks)")
+      .Min(0).Max(1)
       .Add("pothole_min_depth_sigma", &O::pothole_min_depth_sigma,
            "depressions shallower than this many sigma_Z are 'other'")
       .Min(0)

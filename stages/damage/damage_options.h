@@ -18,10 +18,18 @@ struct RoadModelOptions {
   unsigned random_seed = 1;           ///< RANSAC sampling seed (results are reproducible)
   /// Cell of the local correction of the quadratic model (robust median of road residuals per
   /// cell, damage excluded, smoothed): follows a crowned (roof-shaped) road; 0 = off.
-  int local_cell_px = 48;
+  int local_cell_px = 24;
   /// Side of the normalised box filter (valid pixels only) applied to the transformed disparity
   /// and the depth below the road: averages stereo matching noise; 1 = off.
   int relief_smooth_px = 7;
+  /// Analysed range: disparities whose stereo depth uncertainty σ_Z = Z²·σ_d/(f·B) (σ_d =
+  /// measure.sigma_disparity_px) exceeds this are dropped before the road fit (the far road of
+  /// a forward-looking camera, where no depth can be measured, bends the model); 0 = keep all.
+  double max_depth_sigma_m = 0.05;
+  /// The analysed range never ends nearer than this multiple of the nearest road depth (the
+  /// 2nd-percentile depth of the frame): a high or low-resolution nadir camera, whose whole
+  /// road lies beyond the σ_Z limit, still has its road analysed (σ_Z is reported per damage).
+  double min_range_factor = 1.5;
   void Check() const;
   static const OptionTable<RoadModelOptions>& Table();
 };
@@ -36,7 +44,8 @@ struct SegmentOptions {
   double grow_fraction = 0.5;         ///< hysteresis: grow regions into pixels deeper than this fraction of the threshold
   double invalid_fill_fraction = 0.3; ///< unmatched patches whose border is at least this fraction damage join it
   int morph_radius_px = 2;            ///< opening/closing radius, px
-  double rim_depth_m = 0.003;         ///< calibrated: extend instances along the rim into pixels at least this deep, m
+  double rim_depth_m = 0.001;         ///< calibrated: rim extension threshold floor (raised to the local road noise), m
+  double rim_depth_fraction = 0.03;   ///< calibrated: rim threshold at least this fraction of the instance's depth
   double min_area_m2 = 0.005;         ///< smallest damage kept when calibration is known, m²
   int min_area_px = 400;              ///< smallest damage kept without calibration, px
   void Check() const;
@@ -65,6 +74,9 @@ struct MeasureOptions {
   /// Width of the part at least half the max depth deep (largest inscribed circle): a deep but
   /// narrow crack, widened by segmentation, is not a pothole.
   double pothole_min_core_width_m = 0.05;
+  /// Area / (π/4 · max diameter²) on the road plane: an elongated depression (a deep crack
+  /// widened by segmentation and the oblique view) is not a pothole (bowl-shaped).
+  double pothole_min_compactness = 0.3;
   /// Max depth must reach this many σ_Z (stereo depth noise at the instance's range): far
   /// depressions within the noise are "other".
   double pothole_min_depth_sigma = 1.0;

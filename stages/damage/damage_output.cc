@@ -1,5 +1,7 @@
 #include "stages/damage/damage_output.h"
 
+#include "stages/damage/measure.h"
+
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -33,12 +35,14 @@ cv::Mat RenderOverlay(const cv::Mat& left, const cv::Mat& labels, const std::vec
   else out = left.clone();
   const int thick = std::max(2, left.cols / 500);
   const double font = std::max(0.5, left.cols / 1600.0);
+  const std::vector<cv::Rect> boxes = LabelBoxes(labels);
   for (const DamageInstance& d : instances) {
     const cv::Scalar colour = d.type == DamageType::kPothole ? cv::Scalar(0, 0, 255)
                               : d.type == DamageType::kCrack ? cv::Scalar(0, 255, 255)
                                                              : cv::Scalar(255, 0, 255);
     if (d.type == DamageType::kCrack) {
-      out.setTo(colour, labels == d.id);
+      if (d.id < static_cast<int>(boxes.size()) && !boxes[d.id].empty())
+        out(boxes[d.id]).setTo(colour, labels(boxes[d.id]) == d.id);
     } else if (d.outline_px.size() >= 2) {
       cv::polylines(out, std::vector<std::vector<cv::Point>>{d.outline_px}, true, colour, thick, cv::LINE_AA);
     }

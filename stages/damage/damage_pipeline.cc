@@ -1,18 +1,22 @@
 #include "stages/damage/damage_pipeline.h"
 
 #include "stages/damage/cracks.h"
+#include "stages/damage/damage_output.h"
 #include "stages/damage/measure.h"
 #include "stages/damage/severity.h"
 
-#include <Eigen/Dense>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
 #include <chrono>
 #include <ctime>
 #include <cmath>
-#include <random>
+#include <limits>
+#include <string>
 #include <stdexcept>
+#include <vector>
 
 namespace rs {
 namespace {
@@ -22,13 +26,19 @@ double MsSince(std::chrono::steady_clock::time_point t0) {
 }
 
 // Appends crack instances to `labels`/`instances` with ids after the depressions.
+// Each crack is written within its bounding box only.
 void AddCracks(const CrackDetection& cracks, cv::Mat& labels, std::vector<DamageInstance>& instances) {
   const int base = instances.empty() ? 0 : instances.back().id;
+  const std::vector<cv::Rect> boxes = LabelBoxes(cracks.labels);
   for (DamageInstance d : cracks.instances) {
     if (base + d.id > 65535) break;
     const int old_id = d.id;
     d.id = base + old_id;
-    labels.setTo(d.id, (cracks.labels == old_id) & (labels == 0));
+    if (old_id < static_cast<int>(boxes.size()) && !boxes[old_id].empty()) {
+      const cv::Rect& b = boxes[old_id];
+      cv::Mat sub = labels(b);
+      sub.setTo(d.id, (cracks.labels(b) == old_id) & (sub == 0));
+    }
     instances.push_back(std::move(d));
   }
 }
@@ -43,15 +53,47 @@ void DamageOptions::Check() const {
   severity.Check();
 }
 
-FrameDamage DetectDamage(const cv::Mat& disparity_px, const cv::Mat& left_image, const StereoGeometry& g,
+double AnalysedRangeM(const StereoGeometry& g, const DamageOptions& o, double nearest_depth_m) {
+  if (!(o.road.max_depth_sigma_m > 0)) return std::numeric_limits<double>::infinity();
+  const double sigma_range = std::sqrt(o.road.max_depth_sigma_m * g.f_px * g.baseline_m / o.measure.sigma_disparity_px);
+  return std::max(sigma_range, o.road.min_range_factor * nearest_depth_m);
+}
+
+double NearestDepthM(const cv::Mat& disparity_px, const StereoGeometry& g) {
+  std::vector<float> samples;
+  for (int y = 0; y < disparity_px.rows; y += 4) {
+    const float* row = disparity_px.ptr<float>(y);
+    for (int x = 0; x < disparity_px.cols; x += 4)
+      if (row[x] > 0 && std::isfinite(row[x])) samples.push_back(row[x]);
+  }
+  if (samples.empty()) return 0;
+  const auto k = samples.begin() + static_cast<std::ptrdiff_t>(0.98 * double(samples.size() - 1));
+  std::nth_element(samples.begin(), k, samples.end());
+  return g.f_px * g.baseline_m / *k;
+}
+
+FrameDamage DetectDamage(const cv::Mat& input_disparity_px, const cv::Mat& left_image, const StereoGeometry& g,
                          const DamageOptions& o) {
   o.Check();
-  if (!left_image.empty() && left_image.size() != disparity_px.size())
+  if (!left_image.empty() && left_image.size() != input_disparity_px.size())
     throw std::invalid_argument("DetectDamage: left image and disparity differ in size");
+  if (!g.Valid()) throw std::invalid_argument("DetectDamage: stereo geometry needs f > 0 and baseline > 0");
+  if (input_disparity_px.type() != CV_32FC1) throw std::invalid_argument("DetectDamage: disparity must be CV_32FC1");
   FrameDamage f;
   auto t0 = std::chrono::steady_clock::now();
+  cv::Mat disparity_px;  // a new image: the caller's disparity is not changed
+  f.analysed_range_m = AnalysedRangeM(g, o, NearestDepthM(input_disparity_px, g));
+  if (const double z_max = f.analysed_range_m; std::isfinite(z_max))  // beyond: set to 0 (invalid)
+    cv::threshold(input_disparity_px, disparity_px, g.f_px * g.baseline_m / z_max, 0, cv::THRESH_TOZERO);
+  else
+    disparity_px = input_disparity_px;
   f.surface = FitRoadSurface(disparity_px, g, o.road);
-  f.relief = ComputeRoadRelief(disparity_px, g, f.surface, o.road);
+  const RoadRelief evaluated = EvaluateRoadModel(disparity_px, g, f.surface, o.road);
+  RoadRelief first = evaluated;  // masks shared; the images FinishRoadRelief writes are copied
+  first.transformed_disparity_px = evaluated.transformed_disparity_px.clone();
+  first.depth_below_mm = evaluated.depth_below_mm.clone();
+  first.road_depth_m = evaluated.road_depth_m.clone();
+  f.relief = FinishRoadRelief(std::move(first), disparity_px, g, f.surface, o.road);
   f.ms_road = MsSince(t0);
 
   t0 = std::chrono::steady_clock::now();
@@ -63,12 +105,17 @@ FrameDamage DetectDamage(const cv::Mat& disparity_px, const cv::Mat& left_image,
   if (o.road.local_cell_px > 0 && seg.count > 0) {
     // The local road correction, recomputed without the found depressions (grown by half a
     // cell), no longer leans into large shallow damage: depths and rims are measured on it.
-    cv::Mat exclude;
-    const int r = std::max(1, o.road.local_cell_px / 2);
-    cv::dilate(f.labels != 0, exclude, cv::getStructuringElement(cv::MORPH_ELLIPSE, {2 * r + 1, 2 * r + 1}));
-    f.relief = ComputeRoadRelief(disparity_px, g, f.surface, o.road, exclude);
+    // Dilated at quarter resolution: a 49×49 disk at full resolution costs more than the
+    // rest of the segmentation, and the cell medians need no pixel accuracy.
+    const int r = std::max(1, o.road.local_cell_px / 8);
+    cv::Mat small, exclude;
+    cv::resize(f.labels != 0, small, cv::Size((f.labels.cols + 3) / 4, (f.labels.rows + 3) / 4), 0, 0,
+               cv::INTER_AREA);
+    cv::dilate(small > 0, small, cv::getStructuringElement(cv::MORPH_ELLIPSE, {2 * r + 1, 2 * r + 1}));
+    cv::resize(small, exclude, f.labels.size(), 0, 0, cv::INTER_NEAREST);
+    RefineRoadRelief(f.relief, evaluated, disparity_px, g, f.surface, o.road, exclude);
   }
-  ExtendToRim(f.labels, f.relief, o.segment.rim_depth_m);
+  ExtendToRim(f.labels, f.relief, o.segment.rim_depth_m, o.segment.rim_depth_fraction);
   f.ms_segment = MsSince(t0);
 
   t0 = std::chrono::steady_clock::now();
@@ -84,9 +131,11 @@ FrameDamage DetectDamage(const cv::Mat& disparity_px, const cv::Mat& left_image,
     AddCracks(cracks, f.labels, f.instances);
     f.ms_cracks = MsSince(t0);
   }
+  const std::vector<cv::Rect> boxes = LabelBoxes(f.labels);
   for (DamageInstance& d : f.instances) {
-    if (d.type == DamageType::kCrack) {
-      d.range_m = cv::mean(f.relief.road_depth_m, f.labels == d.id)[0];
+    if (d.type == DamageType::kCrack && d.id < static_cast<int>(boxes.size()) && !boxes[d.id].empty()) {
+      const cv::Rect& b = boxes[d.id];
+      d.range_m = cv::mean(f.relief.road_depth_m(b), f.labels(b) == d.id)[0];
       d.sigma_depth_m = StereoDepthSigma(d.range_m, o.measure.sigma_disparity_px, g);
     }
     GradeInstance(d, o.severity);
@@ -127,67 +176,40 @@ TransformedSegmentation SegmentTransformedDisparity(const cv::Mat& transformed, 
   return out;
 }
 
-cv::Mat SyntheticRoadScene::Render() const {
-  const double th = pitch_deg * CV_PI / 180.0;
-  const Eigen::Vector3d up(0, -std::cos(th), -std::sin(th));  // road normal towards the camera, camera frame
-  // Pothole centre: on the plane, straight ahead in the image's centre column at depth pothole_z_m.
-  // Ray through (cx, v): z = 1, y = (v − cy)/f; solve up·(Z r) = −H for the row that gives Z.
-  const double yz = (-height_m / pothole_z_m - up.z()) / up.y();  // y/z of the ray hitting the plane at Z
-  const Eigen::Vector3d c0 = pothole_z_m * Eigen::Vector3d(0, yz, 1);
-  const double a = pothole_radius_m, h = pothole_depth_m, R = (a * a + h * h) / (2 * h);
-  const Eigen::Vector3d sphere = c0 + up * (R - h);
-  const Eigen::Vector3d e1 = Eigen::Vector3d::UnitX(), e2 = up.cross(e1);
-  std::mt19937 rng(seed);
-  std::normal_distribution<double> noise(0.0, sigma_d_px);
-  cv::Mat d(height, width, CV_32F);
-  const double fb = geometry.f_px * geometry.baseline_m;
-  for (int v = 0; v < height; ++v)
-    for (int u = 0; u < width; ++u) {
-      const Eigen::Vector3d r((u - geometry.cx_px) / geometry.f_px, (v - geometry.cy_px) / geometry.f_px, 1.0);
-      const double ur = up.dot(r);
-      if (ur >= -1e-9) { d.at<float>(v, u) = 0; continue; }  // above the horizon: no road
-      double z = -height_m / ur;
-      const Eigen::Vector3d p = z * r;
-      if (box_height_m > 0) {  // slab top at box_height_m, to the right of the pothole, 0.6 m × 0.6 m
-        const double zt = -(height_m - box_height_m) / ur;
-        const Eigen::Vector3d q = zt * r - c0;
-        const double s = e1.dot(q), t = e2.dot(q);
-        if (s > 0.45 && s < 1.05 && t > -0.3 && t < 0.3) z = zt;
-      }
-      if (z == -height_m / ur && (p - c0).norm() < a) {
-        // Far intersection of the ray with the sphere = the bowl's surface below the plane.
-        const double b = r.dot(sphere), cc = sphere.squaredNorm() - R * R, rr = r.squaredNorm();
-        const double disc = b * b - rr * cc;
-        if (disc > 0) z = (b + std::sqrt(disc)) / rr;
-      }
-      d.at<float>(v, u) = static_cast<float>(fb / z + noise(rng));
-    }
-  return d;
-}
-
-double SyntheticRoadScene::TrueAreaM2() const { return CV_PI * pothole_radius_m * pothole_radius_m; }
-
-double SyntheticRoadScene::TrueVolumeM3() const {
-  const double a = pothole_radius_m, h = pothole_depth_m, R = (a * a + h * h) / (2 * h);
-  return CV_PI * h * h * (3 * R - h) / 3.0;
-}
-
 DamageBench BenchDetectDamage(int width, int height, int repeats) {
-  SyntheticRoadScene scene;
-  scene.width = width, scene.height = height;
-  scene.geometry = {width * 0.78, width / 2.0, height / 2.0, 0.20};
-  const cv::Mat disparity = scene.Render();
-  std::vector<double> wall, cpu;
+  const SyntheticRoadScene scene = BenchmarkRoadScene(width, height);
+  const cv::Mat disparity = scene.Render(), image = scene.RenderImage();
+  const DamageOptions options;
+  std::vector<double> wall, cpu, steps[6];
+  DamageBench b;
   for (int i = 0; i < std::max(1, repeats); ++i) {
     const auto t0 = std::chrono::steady_clock::now();
     const std::clock_t c0 = std::clock();
-    const FrameDamage f = DetectDamage(disparity, cv::Mat(), scene.geometry, DamageOptions());
+    const FrameDamage f = DetectDamage(disparity, image, scene.geometry, options);
+    const auto t1 = std::chrono::steady_clock::now();
+    const cv::Mat overlay = RenderOverlay(image, f.labels, f.instances);
+    const std::string json = DetectionsToJson(f.instances).dump(2);
     cpu.push_back(1000.0 * double(std::clock() - c0) / CLOCKS_PER_SEC);
     wall.push_back(MsSince(t0));
+    steps[0].push_back(f.ms_road), steps[1].push_back(f.ms_segment), steps[2].push_back(f.ms_measure);
+    steps[3].push_back(f.ms_cracks), steps[4].push_back(MsSince(t1));
+    const auto t2 = std::chrono::steady_clock::now();
+    std::vector<uchar> png;
+    cv::imencode(".png", f.labels, png);
+    cv::imencode(".png", overlay, png);
+    steps[5].push_back(MsSince(t2));
+    b.potholes = b.cracks = b.others = 0;
+    for (const DamageInstance& d : f.instances)
+      (d.type == DamageType::kPothole ? b.potholes : d.type == DamageType::kCrack ? b.cracks : b.others)++;
   }
-  std::sort(wall.begin(), wall.end());
-  std::sort(cpu.begin(), cpu.end());
-  return {wall[wall.size() / 2], cpu[cpu.size() / 2]};
+  auto median = [](std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    return v[v.size() / 2];
+  };
+  b.wall_ms = median(wall), b.cpu_ms = median(cpu);
+  b.road_ms = median(steps[0]), b.segment_ms = median(steps[1]), b.measure_ms = median(steps[2]);
+  b.cracks_ms = median(steps[3]), b.outputs_ms = median(steps[4]), b.encode_ms = median(steps[5]);
+  return b;
 }
 
 }  // namespace rs

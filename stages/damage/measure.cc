@@ -3,6 +3,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
+#include <climits>
 #include <cmath>
 #include <stdexcept>
 
@@ -23,9 +24,35 @@ cv::Mat PixelAreaOnRoad(const RoadRelief& r, const StereoGeometry& g, const Road
   return area;
 }
 
+std::vector<cv::Rect> LabelBoxes(const cv::Mat& labels) {
+  if (labels.type() != CV_16UC1) throw std::invalid_argument("LabelBoxes: labels must be CV_16U");
+  struct Box { int u0 = INT_MAX, v0 = INT_MAX, u1 = -1, v1 = -1; };
+  std::vector<Box> b(1);
+  for (int v = 0; v < labels.rows; ++v) {
+    const uint16_t* l = labels.ptr<uint16_t>(v);
+    for (int u = 0; u < labels.cols; ++u) {
+      const int id = l[u];
+      if (!id) continue;
+      if (id >= static_cast<int>(b.size())) b.resize(id + 1);
+      Box& x = b[id];
+      x.u0 = std::min(x.u0, u), x.u1 = std::max(x.u1, u), x.v0 = std::min(x.v0, v), x.v1 = std::max(x.v1, v);
+    }
+  }
+  std::vector<cv::Rect> out(b.size());
+  for (size_t i = 1; i < b.size(); ++i)
+    if (b[i].u1 >= 0) out[i] = cv::Rect(b[i].u0, b[i].v0, b[i].u1 - b[i].u0 + 1, b[i].v1 - b[i].v0 + 1);
+  return out;
+}
+
 std::vector<cv::Point> OutlineOf(const cv::Mat& labels, int id) {
+  return OutlineOf(labels, id, cv::Rect({}, labels.size()));
+}
+
+std::vector<cv::Point> OutlineOf(const cv::Mat& labels, int id, const cv::Rect& box) {
+  const cv::Rect roi = cv::Rect(box.x - 1, box.y - 1, box.width + 2, box.height + 2) & cv::Rect({}, labels.size());
+  if (roi.empty()) return {};
   std::vector<std::vector<cv::Point>> contours;
-  cv::findContours(labels == id, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
+  cv::findContours(labels(roi) == id, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE, roi.tl());
   if (contours.empty()) return {};
   auto biggest = std::max_element(contours.begin(), contours.end(), [](const auto& a, const auto& b) {
     return cv::contourArea(a) < cv::contourArea(b);
@@ -35,25 +62,56 @@ std::vector<cv::Point> OutlineOf(const cv::Mat& labels, int id) {
   return poly;
 }
 
-void ExtendToRim(cv::Mat& labels, const RoadRelief& r, double rim_depth_m) {
-  double maxv = 0;
-  cv::minMaxLoc(labels, nullptr, &maxv);
-  for (int id = 1; id <= static_cast<int>(maxv); ++id) {
-    std::vector<cv::Point> pts;
-    cv::findNonZero(labels == id, pts);
-    if (pts.empty()) continue;
-    const int band = std::max(1, static_cast<int>(0.3 * std::sqrt(pts.size() / CV_PI)));
-    cv::Rect roi = cv::boundingRect(pts);
-    roi = cv::Rect(roi.x - band - 1, roi.y - band - 1, roi.width + 2 * band + 2, roi.height + 2 * band + 2) &
-          cv::Rect({}, labels.size());
+void ExtendToRim(cv::Mat& labels, const RoadRelief& r, double rim_depth_m, double rim_depth_fraction) {
+  // Boxes and pixel counts of the instances as segmented (growth of one id never changes another's).
+  const std::vector<cv::Rect> boxes = LabelBoxes(labels);
+  for (int id = 1; id < static_cast<int>(boxes.size()); ++id) {
+    if (boxes[id].empty()) continue;
+    const int count = cv::countNonZero(labels(boxes[id]) == id);
+    const int band = std::max(1, static_cast<int>(0.3 * std::sqrt(count / CV_PI)));
+    const int pad = 2 * band + 1;
+    const cv::Rect roi = cv::Rect(boxes[id].x - pad, boxes[id].y - pad, boxes[id].width + 2 * pad,
+                                  boxes[id].height + 2 * pad) &
+                         cv::Rect({}, labels.size());
     cv::Mat lab = labels(roi);  // view: writes go to `labels`
     const cv::Mat inst = lab == id;
-    cv::Mat zone;
-    cv::dilate(inst, zone, cv::getStructuringElement(cv::MORPH_ELLIPSE, {2 * band + 1, 2 * band + 1}));
+    const cv::Mat depth = r.depth_below_mm(roi), obstacle = r.obstacle_mask(roi);
+    cv::Mat dist;  // distance to the instance, px
+    cv::distanceTransform(inst == 0, dist, cv::DIST_L2, cv::DIST_MASK_5);
+    // Level and spread of the road in a ring just outside the band: the rim threshold must stand
+    // above the local road-model misfit (a crown's ridge) and the stereo noise, else the rim
+    // grows into the road.
+    std::vector<float> ring;
+    for (int v = 0; v < lab.rows; ++v)
+      for (int u = 0; u < lab.cols; ++u) {
+        const float dd = dist.at<float>(v, u), x = depth.at<float>(v, u);
+        if (dd > band && dd <= 2 * band && lab.at<uint16_t>(v, u) == 0 && !obstacle.at<uchar>(v, u) &&
+            std::isfinite(x))
+          ring.push_back(x);
+      }
+    // The instance's depth (99th percentile): the smoothing's halo and the local model's misfit
+    // beside a deep wall grow with it.
+    std::vector<float> inside;
+    for (int v = 0; v < lab.rows; ++v)
+      for (int u = 0; u < lab.cols; ++u)
+        if (inst.at<uchar>(v, u) && std::isfinite(depth.at<float>(v, u))) inside.push_back(depth.at<float>(v, u));
+    double threshold_mm = rim_depth_m * 1000.0;
+    if (!inside.empty()) {
+      auto at = inside.begin() + static_cast<long>(0.99 * (inside.size() - 1));
+      std::nth_element(inside.begin(), at, inside.end());
+      threshold_mm = std::max(threshold_mm, rim_depth_fraction * *at);
+    }
+    if (ring.size() >= 20) {
+      auto mid = ring.begin() + ring.size() / 2;
+      std::nth_element(ring.begin(), mid, ring.end());
+      const double level = *mid;
+      for (float& x : ring) x = std::abs(x - static_cast<float>(level));
+      std::nth_element(ring.begin(), mid, ring.end());
+      threshold_mm = std::max(threshold_mm, level + 3.0 * 1.4826 * *mid);
+    }
     // Candidates: deep (NaN compares false), inside the band, not another instance; keep those
     // connected to the instance.
-    const cv::Mat deep = r.depth_below_mm(roi) >= rim_depth_m * 1000.0;
-    const cv::Mat cand = ((deep & zone) & (lab == 0)) | inst;
+    const cv::Mat cand = ((depth >= threshold_mm) & (dist <= band) & (lab == 0)) | inst;
     cv::Mat cc;
     const int n = cv::connectedComponents(cand, cc, 8, CV_32S);
     std::vector<char> keep(n, 0);
@@ -70,8 +128,8 @@ void ExtendToRim(cv::Mat& labels, const RoadRelief& r, double rim_depth_m) {
 }
 
 double CoreWidthM(const cv::Mat& labels, int id, const RoadRelief& r, const cv::Mat& pixel_area_m2,
-                  double min_depth_m) {
-  cv::Rect roi = cv::boundingRect(labels == id);
+                  double min_depth_m, cv::Rect box) {
+  cv::Rect roi = box.empty() ? cv::boundingRect(labels == id) : box;
   if (roi.empty()) return 0;
   roi = cv::Rect(roi.x - 1, roi.y - 1, roi.width + 2, roi.height + 2) & cv::Rect({}, labels.size());
   // NaN depth compares false: unmatched pixels are not part of the core.
@@ -125,6 +183,7 @@ std::vector<DamageInstance> MeasureDepressions(const cv::Mat& labels, const Road
       }
     }
   }
+  const std::vector<cv::Rect> boxes = LabelBoxes(labels);
   std::vector<DamageInstance> out;
   for (int id = 1; id <= n; ++id) {
     Acc& c = acc[id];
@@ -145,7 +204,7 @@ std::vector<DamageInstance> MeasureDepressions(const cv::Mat& labels, const Road
       d.volume_m3 = c.volume + std::max(0.0, d.mean_depth_m) * (c.area - c.area_valid);
     }
     d.equivalent_diameter_m = std::sqrt(4.0 * d.area_m2 / CV_PI);
-    d.outline_px = OutlineOf(labels, id);
+    d.outline_px = OutlineOf(labels, id, boxes[id]);
     std::vector<Eigen::Vector3d> ring;
     for (const cv::Point& p : d.outline_px) {
       const double z = s.RayDepth(g, p.x, p.y);
@@ -160,8 +219,10 @@ std::vector<DamageInstance> MeasureDepressions(const cv::Mat& labels, const Road
     d.max_diameter_m = dmax;
     const bool deep = std::isfinite(d.max_depth_m) && d.max_depth_m >= o.pothole_min_depth_m &&
                       d.max_depth_m >= o.pothole_min_depth_sigma * d.sigma_depth_m;
-    const bool wide = deep && d.equivalent_diameter_m >= o.pothole_min_diameter_m &&
-                      CoreWidthM(labels, id, r, area, 0.5 * d.max_depth_m) >= o.pothole_min_core_width_m;
+    const bool compact = d.max_diameter_m > 0 && d.area_m2 >= o.pothole_min_compactness * CV_PI / 4 *
+                                                                  d.max_diameter_m * d.max_diameter_m;
+    const bool wide = deep && compact && d.equivalent_diameter_m >= o.pothole_min_diameter_m &&
+                      CoreWidthM(labels, id, r, area, 0.5 * d.max_depth_m, boxes[id]) >= o.pothole_min_core_width_m;
     d.type = wide ? DamageType::kPothole : DamageType::kOther;
     // Confidence: how far the mean depth stands above the stereo noise (a 3σ_Z depression ≈ 0.99).
     d.confidence = std::isfinite(d.mean_depth_m) && d.sigma_depth_m > 0

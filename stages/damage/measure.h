@@ -16,16 +16,19 @@ namespace rs {
 /// plane at camera depth Z covers Z³ / (f² · h), h = camera height above the plane.
 cv::Mat PixelAreaOnRoad(const RoadRelief& relief, const StereoGeometry& geometry, const RoadSurface& surface);
 
-/// Grows each instance of `labels` (in place) into connected pixels at least `rim_depth_m`
-/// below the road, within a band of 30 % of the instance's equivalent radius: the
-/// threshold of the unsupervised segmentation stops short of the shallow rim.
-void ExtendToRim(cv::Mat& labels, const RoadRelief& relief, double rim_depth_m);
+/// Grows each instance of `labels` (in place) into connected pixels deeper below the road than
+/// the rim threshold, within a band of 30 % of the instance's equivalent radius: the threshold
+/// of the unsupervised segmentation stops short of the shallow rim. Rim threshold = the largest
+/// of `rim_depth_m`, `rim_depth_fraction` × the instance's depth (99th percentile) and
+/// median + 3 robust σ of the depth in the ring between one and two bands outside the instance
+/// (local road-model misfit and stereo noise).
+void ExtendToRim(cv::Mat& labels, const RoadRelief& relief, double rim_depth_m, double rim_depth_fraction = 0);
 
 /// Measures every instance 1..max of a CV_16U label image. Invalid pixels inside an
 /// instance count for area and take the instance's mean depth for the volume.
 /// Type: pothole when max depth ≥ pothole_min_depth_m and ≥ pothole_min_depth_sigma · σ_Z, equivalent diameter ≥
-/// pothole_min_diameter_m and the half-max-depth core at least pothole_min_core_width_m
-/// wide (CoreWidthM), otherwise other. Severity is not graded here.
+/// pothole_min_diameter_m, area ≥ pothole_min_compactness · π/4 · max diameter² and the
+/// half-max-depth core at least pothole_min_core_width_m wide (CoreWidthM), otherwise other. Severity is not graded here.
 std::vector<DamageInstance> MeasureDepressions(const cv::Mat& labels, const RoadRelief& relief,
                                                const StereoGeometry& geometry, const RoadSurface& surface,
                                                const MeasureOptions& options);
@@ -33,10 +36,17 @@ std::vector<DamageInstance> MeasureDepressions(const cv::Mat& labels, const Road
 /// Width (m) of the largest circle inscribed in the part of instance `id` at least
 /// `min_depth_m` below the road (pixel widths from `pixel_area_m2`); 0 when empty.
 double CoreWidthM(const cv::Mat& labels, int id, const RoadRelief& relief, const cv::Mat& pixel_area_m2,
-                  double min_depth_m);
+                  double min_depth_m, cv::Rect box = cv::Rect());  ///< box: the label's bounding box (empty = search)
 
 /// Outer boundary of one label as a polygon (pixel coordinates), simplified to 1 px.
 std::vector<cv::Point> OutlineOf(const cv::Mat& labels, int id);
+/// The same, searching only `box` (the label's bounding box, e.g. from LabelBoxes): per-instance
+/// work stays proportional to the instance, not the frame.
+std::vector<cv::Point> OutlineOf(const cv::Mat& labels, int id, const cv::Rect& box);
+
+/// Bounding box of every label 0..max of a CV_16U label image in one pass (index = id;
+/// empty cv::Rect for absent ids; entry 0 is the background's box and unused).
+std::vector<cv::Rect> LabelBoxes(const cv::Mat& labels);
 
 /// Stereo depth uncertainty σ_Z = Z²·σ_d / (f·B), m.
 double StereoDepthSigma(double z_m, double sigma_disparity_px, const StereoGeometry& geometry);

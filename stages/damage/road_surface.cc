@@ -196,27 +196,35 @@ RoadSurface FitRoadSurface(const cv::Mat& disparity_px, const StereoGeometry& g,
 
 namespace {
 
-// Per-cell median of depth below the model (mm) over road pixels within `band_mm` of `prior`
-// (full-resolution CV_32F); cells with too few such pixels are filled from their neighbours.
-cv::Mat CellMedians(const RoadRelief& r, const cv::Mat& prior, double band_mm, int cell) {
-  const int gw = (r.depth_below_mm.cols + cell - 1) / cell, gh = (r.depth_below_mm.rows + cell - 1) / cell;
+// Per-cell median of depth below the model (mm) over pixels not in `ignore` (obstacles, known
+// damage) within `band_mm` of `prior` (full-resolution CV_32F; empty = 0); cells with too few
+// such pixels are filled from their neighbours.
+// Returns the (gh × gw) grid, 3×3 smoothed; UpsampleGrid interpolates it to full resolution.
+cv::Mat CellGrid(const cv::Mat& depth, const cv::Mat& ignore, const cv::Mat& prior, double band_mm, int cell) {
+  const int gw = (depth.cols + cell - 1) / cell, gh = (depth.rows + cell - 1) / cell;
   cv::Mat grid(gh, gw, CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
-  std::vector<float> vals;
-  for (int gy = 0; gy < gh; ++gy)
+  // Every third pixel in u and v: 64 samples per 24-px cell are plenty for a median.
+  tbb::parallel_for(0, gh, [&](int gy) {  // one grid row per task
+    std::vector<float> vals;
     for (int gx = 0; gx < gw; ++gx) {
       vals.clear();
       int seen = 0;
-      for (int v = gy * cell; v < std::min((gy + 1) * cell, r.depth_below_mm.rows); v += 2)
-        for (int u = gx * cell; u < std::min((gx + 1) * cell, r.depth_below_mm.cols); u += 2) {
+      const int u0 = gx * cell, u1 = std::min((gx + 1) * cell, depth.cols);
+      for (int v = gy * cell; v < std::min((gy + 1) * cell, depth.rows); v += 3) {
+        const float* x = depth.ptr<float>(v);
+        const float* p = prior.empty() ? nullptr : prior.ptr<float>(v);
+        const uchar* ob = ignore.ptr<uchar>(v);
+        for (int u = u0; u < u1; u += 3) {
           ++seen;
-          const float x = r.depth_below_mm.at<float>(v, u);
-          if (r.obstacle_mask.at<uchar>(v, u) || !std::isfinite(x)) continue;
-          if (std::abs(x - prior.at<float>(v, u)) < band_mm) vals.push_back(x);
+          if (ob[u] || !std::isfinite(x[u])) continue;
+          if (std::abs(x[u] - (p ? p[u] : 0.0f)) < band_mm) vals.push_back(x[u]);
         }
+      }
       if (vals.size() * 2 < static_cast<size_t>(seen) || vals.empty()) continue;
       std::nth_element(vals.begin(), vals.begin() + vals.size() / 2, vals.end());
       grid.at<float>(gy, gx) = vals[vals.size() / 2];
     }
+  });
   // Fill empty cells (damage, obstacles, no disparity) from their neighbours, ring by ring.
   for (int pass = 0; pass < gw + gh; ++pass) {
     cv::Mat next = grid.clone();
@@ -241,49 +249,72 @@ cv::Mat CellMedians(const RoadRelief& r, const cv::Mat& prior, double band_mm, i
   }
   cv::patchNaNs(grid, 0.0);
   cv::blur(grid, grid, {3, 3}, {-1, -1}, cv::BORDER_REPLICATE);
-  cv::Mat full;
-  cv::resize(grid, full, {gw * cell, gh * cell}, 0, 0, cv::INTER_LINEAR);
-  return full(cv::Rect(0, 0, r.depth_below_mm.cols, r.depth_below_mm.rows)).clone();
+  return grid;
 }
 
-// Robust spread (1.4826 · MAD, mm) of the road pixels' depth below the model after `corr`.
-double ResidualSpreadMm(const RoadRelief& r, const cv::Mat& corr) {
+// Bilinear interpolation of a cell grid to the image size. Grid node j only influences pixels
+// in [(j − 1)·cell, (j + 2)·cell).
+cv::Mat UpsampleGrid(const cv::Mat& grid, int cell, cv::Size size) {
+  cv::Mat full;
+  cv::resize(grid, full, {grid.cols * cell, grid.rows * cell}, 0, 0, cv::INTER_LINEAR);
+  return full(cv::Rect({}, size));  // a view: no copy
+}
+
+// Robust spread (1.4826 · MAD, mm) of the depth below the model after `corr` outside `ignore`.
+double ResidualSpreadMm(const cv::Mat& depth, const cv::Mat& ignore, const cv::Mat& corr) {
   std::vector<float> e;
-  for (int v = 0; v < corr.rows; v += 4)
-    for (int u = 0; u < corr.cols; u += 4) {
-      const float x = r.depth_below_mm.at<float>(v, u);
-      if (!r.obstacle_mask.at<uchar>(v, u) && std::isfinite(x)) e.push_back(std::abs(x - corr.at<float>(v, u)));
-    }
+  for (int v = 0; v < corr.rows; v += 4) {
+    const float* x = depth.ptr<float>(v);
+    const float* c = corr.ptr<float>(v);
+    const uchar* ob = ignore.ptr<uchar>(v);
+    for (int u = 0; u < corr.cols; u += 4)
+      if (!ob[u] && std::isfinite(x[u])) e.push_back(std::abs(x[u] - c[u]));
+  }
   if (e.empty()) return 0;
   std::nth_element(e.begin(), e.begin() + e.size() / 2, e.end());
   return 1.4826 * e[e.size() / 2];
 }
 
-void ApplyLocalCorrection(RoadRelief& r, const cv::Mat& disparity_px, const StereoGeometry& g, const RoadSurface& s,
-                          const RoadModelOptions& o, const cv::Mat& exclude) {
-  // Known damage is treated like an obstacle by the cell medians (restored below).
-  const cv::Mat obstacle = r.obstacle_mask.clone();
-  if (!exclude.empty()) r.obstacle_mask.setTo(255, exclude);
-  const cv::Mat zero = cv::Mat::zeros(r.depth_below_mm.size(), CV_32F);
+// Local correction (mm) of the depth below the model `depth` (uncorrected), leaving out
+// obstacles and `exclude`: grid and full resolution.
+struct LocalCorrection {
+  cv::Mat grid, full;
+};
+LocalCorrection ComputeLocalCorrection(const cv::Mat& depth, const cv::Mat& obstacle, const cv::Mat& exclude,
+                                       const RoadSurface& s, const RoadModelOptions& o) {
+  // Known damage is left out of the cell medians like an obstacle.
+  const cv::Mat ignore = exclude.empty() ? obstacle : (obstacle | exclude);
+  const int cell = o.local_cell_px;
   const double band1 = std::clamp(4000.0 * s.residual_sigma_m, 6.0, 20.0);
-  const cv::Mat c1 = CellMedians(r, zero, band1, o.local_cell_px);
-  const double band2 = std::max(3.0 * ResidualSpreadMm(r, c1), 1000.0 * o.min_noise_m * 2.0);
-  r.correction_mm = CellMedians(r, c1, band2, o.local_cell_px);
-  r.obstacle_mask = obstacle;
+  const cv::Mat c1 = UpsampleGrid(CellGrid(depth, ignore, cv::Mat(), band1, cell), cell, depth.size());
+  // The band's spread is taken over all road pixels, known damage included (MAD: robust to it),
+  // so a refinement with other exclusions changes the correction only around them.
+  const double band2 = std::max(3.0 * ResidualSpreadMm(depth, obstacle, c1), 1000.0 * o.min_noise_m * 2.0);
+  LocalCorrection c;
+  c.grid = CellGrid(depth, ignore, c1, band2, cell);
+  c.full = UpsampleGrid(c.grid, cell, depth.size());
+  return c;
+}
+
+// Applies the correction `corr` to the uncorrected relief `r`, whose pixel (0, 0) is image
+// pixel `at` (r, disparity_px and corr all of one size).
+void ApplyCorrection(RoadRelief& r, const cv::Mat& corr, const cv::Mat& disparity_px, cv::Point at,
+                     const StereoGeometry& g, const RoadSurface& s, const RoadModelOptions& o) {
+  r.correction_mm = corr;
   const double fb = g.f_px * g.baseline_m;
-  tbb::parallel_for(0, r.correction_mm.rows, [&](int v) {
-    const float* c = r.correction_mm.ptr<float>(v);
+  tbb::parallel_for(0, corr.rows, [&](int v) {
+    const float* c = corr.ptr<float>(v);
     const float* d = disparity_px.ptr<float>(v);
     float* td = r.transformed_disparity_px.ptr<float>(v);
     float* db = r.depth_below_mm.ptr<float>(v);
     float* rz = r.road_depth_m.ptr<float>(v);
     const uchar* va = r.valid_mask.ptr<uchar>(v);
-    const double y = (v - g.cy_px) / g.f_px;
-    for (int u = 0; u < r.correction_mm.cols; ++u) {
+    const double y = (v + at.y - g.cy_px) / g.f_px;
+    for (int u = 0; u < corr.cols; ++u) {
       if (!std::isfinite(rz[u])) continue;
       // Height of Z·ray above the plane changes by (n·ray) per metre of Z: lowering the road
       // by c moves its ray intersection ΔZ = −c / (n·ray) further.
-      const double x = (u - g.cx_px) / g.f_px;
+      const double x = (u + at.x - g.cx_px) / g.f_px;
       const double nr = s.normal.x() * x + s.normal.y() * y + s.normal.z();
       if (std::abs(nr) < 1e-6) continue;
       const double dz = -1e-3 * c[u] / nr;
@@ -297,38 +328,40 @@ void ApplyLocalCorrection(RoadRelief& r, const cv::Mat& disparity_px, const Ster
 }
 
 // Normalised box filter over valid pixels (invalid pixels stay invalid and do not contribute).
+// Invalid pixels hold 0 in the transformed disparity and NaN in the depth.
 void SmoothRelief(RoadRelief& r, const RoadModelOptions& o) {
   const cv::Size k(o.relief_smooth_px, o.relief_smooth_px);
-  cv::Mat w, wsum;
+  cv::Mat w, wsum, depth0, dsum, tsum;
   r.valid_mask.convertTo(w, CV_32F, 1.0 / 255.0);
   cv::boxFilter(w, wsum, CV_32F, k, {-1, -1}, false, cv::BORDER_CONSTANT);
-  auto smooth = [&](cv::Mat& m, bool nan_invalid) {
-    cv::Mat x = m.clone();
-    x.setTo(0, r.valid_mask == 0);
-    cv::Mat xs;
-    cv::boxFilter(x, xs, CV_32F, k, {-1, -1}, false, cv::BORDER_CONSTANT);
-    cv::divide(xs, wsum, xs);
-    xs.copyTo(m, r.valid_mask);
-    if (nan_invalid) m.setTo(std::numeric_limits<float>::quiet_NaN(), r.valid_mask == 0);
-  };
-  smooth(r.depth_below_mm, true);
-  cv::Mat td = r.transformed_disparity_px;
-  smooth(td, false);
-  cv::max(r.transformed_disparity_px, 1e-3, td);  // valid stays > 0
-  td.setTo(0, r.valid_mask == 0);
-  r.transformed_disparity_px = td;
+  depth0 = r.depth_below_mm.clone();
+  cv::patchNaNs(depth0, 0.0);
+  cv::boxFilter(depth0, dsum, CV_32F, k, {-1, -1}, false, cv::BORDER_CONSTANT);
+  cv::boxFilter(r.transformed_disparity_px, tsum, CV_32F, k, {-1, -1}, false, cv::BORDER_CONSTANT);
+  tbb::parallel_for(0, wsum.rows, [&](int v) {
+    const uchar* va = r.valid_mask.ptr<uchar>(v);
+    const float* ws = wsum.ptr<float>(v);
+    const float* ds = dsum.ptr<float>(v);
+    const float* ts = tsum.ptr<float>(v);
+    float* db = r.depth_below_mm.ptr<float>(v);
+    float* td = r.transformed_disparity_px.ptr<float>(v);
+    for (int u = 0; u < wsum.cols; ++u) {
+      if (!va[u]) continue;  // stays NaN / 0
+      db[u] = ds[u] / ws[u];
+      td[u] = std::max(1e-3f, ts[u] / ws[u]);  // valid stays > 0
+    }
+  });
 }
 
 }  // namespace
 
-RoadRelief ComputeRoadRelief(const cv::Mat& disparity_px, const StereoGeometry& g, const RoadSurface& s,
-                             const RoadModelOptions& o, const cv::Mat& exclude) {
-  if (!exclude.empty() && (exclude.type() != CV_8UC1 || exclude.size() != disparity_px.size()))
-    throw std::invalid_argument("road relief: exclude mask must be CV_8U of the disparity's size");
-  if (!g.Valid()) throw std::invalid_argument("road relief: stereo geometry needs f > 0 and baseline > 0");
-  if (disparity_px.type() != CV_32FC1) throw std::invalid_argument("road relief: disparity must be CV_32FC1");
+namespace {
+
+// The quadratic model evaluated on the pixels of `roi` (the relief's pixel (0, 0) is roi.tl()).
+RoadRelief EvaluateRect(const cv::Mat& disparity_px, const StereoGeometry& g, const RoadSurface& s,
+                        const RoadModelOptions& o, const cv::Rect& roi) {
   RoadRelief r;
-  const cv::Size size = disparity_px.size();
+  const cv::Size size = roi.size();
   r.transformed_disparity_px.create(size, CV_32F);
   r.depth_below_mm.create(size, CV_32F);
   r.road_depth_m.create(size, CV_32F);
@@ -343,15 +376,15 @@ RoadRelief ComputeRoadRelief(const cv::Mat& disparity_px, const StereoGeometry& 
   const double bs = -ks.dot(s.origin_m), bt = -kt.dot(s.origin_m), bh = -kh.dot(s.origin_m);
   const auto& c = s.coeffs;
   tbb::parallel_for(0, size.height, [&](int v) {
-    const float* d = disparity_px.ptr<float>(v);
+    const float* d = disparity_px.ptr<float>(v + roi.y) + roi.x;
     float* td = r.transformed_disparity_px.ptr<float>(v);
     float* db = r.depth_below_mm.ptr<float>(v);
     float* rz = r.road_depth_m.ptr<float>(v);
     uchar* ob = r.obstacle_mask.ptr<uchar>(v);
     uchar* va = r.valid_mask.ptr<uchar>(v);
-    const double y = (v - g.cy_px) / g.f_px;
+    const double y = (v + roi.y - g.cy_px) / g.f_px;
     for (int u = 0; u < size.width; ++u) {
-      const double x = (u - g.cx_px) / g.f_px;
+      const double x = (u + roi.x - g.cx_px) / g.f_px;
       const double as = ks.x() * x + ks.y() * y + ks.z(), at = kt.x() * x + kt.y() * y + kt.z();
       const double ah = kh.x() * x + kh.y() * y + kh.z();
       // Road: h(Z) = q(s(Z), t(Z)), a quadratic A Z² + B Z + C = 0 (as RoadSurface::RayDepth).
@@ -392,10 +425,90 @@ RoadRelief ComputeRoadRelief(const cv::Mat& disparity_px, const StereoGeometry& 
       td[u] = static_cast<float>(std::max(1e-3, d[u] - fb / z_road + o.delta_px));
     }
   });
-  r.correction_mm = cv::Mat::zeros(size, CV_32F);
-  if (o.local_cell_px > 0) ApplyLocalCorrection(r, disparity_px, g, s, o, exclude);
+  return r;  // correction_mm: set by FinishRoadRelief (zeros when the local correction is off)
+}
+
+}  // namespace
+
+RoadRelief EvaluateRoadModel(const cv::Mat& disparity_px, const StereoGeometry& g, const RoadSurface& s,
+                             const RoadModelOptions& o) {
+  if (!g.Valid()) throw std::invalid_argument("road relief: stereo geometry needs f > 0 and baseline > 0");
+  if (disparity_px.type() != CV_32FC1) throw std::invalid_argument("road relief: disparity must be CV_32FC1");
+  return EvaluateRect(disparity_px, g, s, o, cv::Rect({}, disparity_px.size()));
+}
+
+RoadRelief FinishRoadRelief(RoadRelief r, const cv::Mat& disparity_px, const StereoGeometry& g, const RoadSurface& s,
+                            const RoadModelOptions& o, const cv::Mat& exclude) {
+  if (!exclude.empty() && (exclude.type() != CV_8UC1 || exclude.size() != disparity_px.size()))
+    throw std::invalid_argument("road relief: exclude mask must be CV_8U of the disparity's size");
+  if (r.depth_below_mm.size() != disparity_px.size())
+    throw std::invalid_argument("road relief: evaluated model and disparity differ in size");
+  if (o.local_cell_px > 0) {
+    const LocalCorrection c = ComputeLocalCorrection(r.depth_below_mm, r.obstacle_mask, exclude, s, o);
+    ApplyCorrection(r, c.full, disparity_px, {0, 0}, g, s, o);
+    r.correction_grid_mm = c.grid;
+  } else {
+    r.correction_mm = cv::Mat::zeros(r.depth_below_mm.size(), CV_32F);
+  }
   if (o.relief_smooth_px > 1) SmoothRelief(r, o);
   return r;
 }
+
+void RefineRoadRelief(RoadRelief& r, const RoadRelief& evaluated, const cv::Mat& disparity_px, const StereoGeometry& g,
+                      const RoadSurface& s, const RoadModelOptions& o, const cv::Mat& exclude) {
+  if (o.local_cell_px <= 0) return;
+  if (evaluated.depth_below_mm.size() != disparity_px.size() || r.correction_grid_mm.empty() ||
+      (!exclude.empty() && (exclude.type() != CV_8UC1 || exclude.size() != disparity_px.size())))
+    throw std::invalid_argument("RefineRoadRelief: needs a FinishRoadRelief result, its evaluation and masks of its size");
+  const LocalCorrection c = ComputeLocalCorrection(evaluated.depth_below_mm, r.obstacle_mask, exclude, s, o);
+  // Only pixels whose interpolation stencil holds a changed grid node change; each such region
+  // is corrected again from the evaluation and smoothed with a margin of the smoothing window,
+  // and its inner part copied back: the same values as a full recomputation.
+  const cv::Mat changed = c.grid != r.correction_grid_mm;
+  cv::Mat cc, stats, centroids;
+  const int n = cv::connectedComponentsWithStats(changed, cc, stats, centroids, 8, CV_32S);
+  const int cell = o.local_cell_px, m = o.relief_smooth_px / 2 + 1;
+  const cv::Rect frame({}, disparity_px.size());
+  std::vector<cv::Rect> regions;
+  for (int i = 1; i < n; ++i) {
+    const int gx = stats.at<int>(i, cv::CC_STAT_LEFT), gy = stats.at<int>(i, cv::CC_STAT_TOP);
+    const int gw = stats.at<int>(i, cv::CC_STAT_WIDTH), gh = stats.at<int>(i, cv::CC_STAT_HEIGHT);
+    regions.push_back(cv::Rect((gx - 1) * cell, (gy - 1) * cell, (gw + 2) * cell, (gh + 2) * cell) & frame);
+  }
+  for (bool merged = true; merged;) {  // overlapping regions merged: no pixel done twice
+    merged = false;
+    for (size_t i = 0; i < regions.size() && !merged; ++i)
+      for (size_t j = i + 1; j < regions.size(); ++j)
+        if ((regions[i] & regions[j]).area() > 0) {
+          regions[i] |= regions[j];
+          regions.erase(regions.begin() + static_cast<long>(j));
+          merged = true;
+          break;
+        }
+  }
+  for (const cv::Rect& inner : regions) {
+    const cv::Rect outer = cv::Rect(inner.x - m, inner.y - m, inner.width + 2 * m, inner.height + 2 * m) & frame;
+    RoadRelief sub;
+    sub.transformed_disparity_px = evaluated.transformed_disparity_px(outer).clone();
+    sub.depth_below_mm = evaluated.depth_below_mm(outer).clone();
+    sub.road_depth_m = evaluated.road_depth_m(outer).clone();
+    sub.valid_mask = evaluated.valid_mask(outer);
+    sub.obstacle_mask = evaluated.obstacle_mask(outer);
+    ApplyCorrection(sub, c.full(outer), disparity_px(outer), outer.tl(), g, s, o);
+    if (o.relief_smooth_px > 1) SmoothRelief(sub, o);
+    const cv::Rect in_sub(inner.tl() - outer.tl(), inner.size());
+    sub.transformed_disparity_px(in_sub).copyTo(r.transformed_disparity_px(inner));
+    sub.depth_below_mm(in_sub).copyTo(r.depth_below_mm(inner));
+    sub.road_depth_m(in_sub).copyTo(r.road_depth_m(inner));
+  }
+  r.correction_mm = c.full;
+  r.correction_grid_mm = c.grid;
+}
+
+RoadRelief ComputeRoadRelief(const cv::Mat& disparity_px, const StereoGeometry& g, const RoadSurface& s,
+                             const RoadModelOptions& o, const cv::Mat& exclude) {
+  return FinishRoadRelief(EvaluateRoadModel(disparity_px, g, s, o), disparity_px, g, s, o, exclude);
+}
+
 
 }  // namespace rs

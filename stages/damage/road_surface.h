@@ -49,6 +49,7 @@ struct RoadRelief {
   /// CV_32F: local correction (mm, > 0 = road below the quadratic) already applied to the
   /// products above: true road height = quadratic − correction (zeros when off).
   cv::Mat correction_mm;
+  cv::Mat correction_grid_mm;  ///< CV_32F per-cell correction (mm) behind correction_mm (empty when off)
 };
 
 /// Evaluates the model on every pixel, then (local_cell_px > 0) corrects it locally: per cell,
@@ -59,5 +60,24 @@ struct RoadRelief {
 RoadRelief ComputeRoadRelief(const cv::Mat& disparity_px, const StereoGeometry& geometry,
                              const RoadSurface& surface, const RoadModelOptions& options,
                              const cv::Mat& exclude = cv::Mat());
+
+/// ComputeRoadRelief in two steps, so a second pass with other `exclude` (DetectDamage's
+/// recomputation without the found depressions) reuses the per-pixel evaluation:
+/// EvaluateRoadModel = the quadratic on every pixel (no local correction, no smoothing;
+/// correction_mm left empty);
+/// FinishRoadRelief = local correction and smoothing applied to it (in place: the images of
+/// `evaluated` are reused; copy the transformed disparity, depth and road depth to keep them).
+RoadRelief EvaluateRoadModel(const cv::Mat& disparity_px, const StereoGeometry& geometry,
+                             const RoadSurface& surface, const RoadModelOptions& options);
+RoadRelief FinishRoadRelief(RoadRelief evaluated, const cv::Mat& disparity_px, const StereoGeometry& geometry,
+                            const RoadSurface& surface, const RoadModelOptions& options,
+                            const cv::Mat& exclude = cv::Mat());
+
+/// Recomputes the local correction of a FinishRoadRelief result with `exclude` left out, from
+/// `evaluated` (the untouched EvaluateRoadModel result it was made from), updating only the
+/// regions whose correction changed: the same result as ComputeRoadRelief(..., exclude).
+void RefineRoadRelief(RoadRelief& relief, const RoadRelief& evaluated, const cv::Mat& disparity_px,
+                      const StereoGeometry& geometry, const RoadSurface& surface, const RoadModelOptions& options,
+                      const cv::Mat& exclude);
 
 }  // namespace rs

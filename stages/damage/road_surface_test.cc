@@ -3,6 +3,7 @@
 #include "stages/damage/damage_pipeline.h"
 
 #include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
 
 #include <cmath>
 
@@ -44,6 +45,36 @@ TEST(RoadSurface, ObstacleRemoved) {
   EXPECT_NEAR(f.instances[0].max_depth_m, 0.06, 0.01);
   EXPECT_GT(cv::countNonZero(f.relief.obstacle_mask), 10000);
   EXPECT_EQ(cv::countNonZero((f.labels != 0) & f.relief.obstacle_mask), 0);
+}
+
+// The incremental refinement (only regions whose local correction changed are recomputed)
+// equals a full recomputation with the same exclusion, on the noisy benchmark frame.
+TEST(RoadSurface, RefineEqualsRecompute) {
+  const SyntheticRoadScene scene = BenchmarkRoadScene(640, 360);
+  const cv::Mat d = scene.Render();
+  const RoadModelOptions o;
+  const RoadSurface s = FitRoadSurface(d, scene.geometry, o);
+  const RoadRelief evaluated = EvaluateRoadModel(d, scene.geometry, s, o);
+  RoadRelief refined = evaluated;
+  refined.transformed_disparity_px = evaluated.transformed_disparity_px.clone();
+  refined.depth_below_mm = evaluated.depth_below_mm.clone();
+  refined.road_depth_m = evaluated.road_depth_m.clone();
+  refined = FinishRoadRelief(std::move(refined), d, scene.geometry, s, o);
+  cv::Mat exclude = cv::Mat::zeros(d.size(), CV_8U);
+  cv::circle(exclude, {200, 250}, 60, cv::Scalar(255), cv::FILLED);  // two "damages"
+  cv::circle(exclude, {480, 200}, 30, cv::Scalar(255), cv::FILLED);
+  RefineRoadRelief(refined, evaluated, d, scene.geometry, s, o, exclude);
+  const RoadRelief full = ComputeRoadRelief(d, scene.geometry, s, o, exclude);
+  auto max_diff = [](const cv::Mat& a, const cv::Mat& b) {
+    cv::Mat x = a.clone(), y = b.clone();
+    cv::patchNaNs(x, 0), cv::patchNaNs(y, 0);
+    return cv::norm(x, y, cv::NORM_INF);
+  };
+  EXPECT_GT(max_diff(refined.correction_mm, ComputeRoadRelief(d, scene.geometry, s, o).correction_mm), 0.01);
+  EXPECT_LE(max_diff(refined.depth_below_mm, full.depth_below_mm), 1e-4);
+  EXPECT_LE(max_diff(refined.transformed_disparity_px, full.transformed_disparity_px), 1e-5);
+  EXPECT_LE(max_diff(refined.road_depth_m, full.road_depth_m), 1e-6);
+  EXPECT_LE(max_diff(refined.correction_mm, full.correction_mm), 1e-6);
 }
 
 TEST(RoadSurface, TooFewPoints) {

@@ -2,6 +2,7 @@
 
 #include <opencv2/imgproc.hpp>
 #include <opencv2/ximgproc/slic.hpp>
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <cmath>
@@ -41,20 +42,21 @@ void FillInvalidInside(cv::Mat& mask, const cv::Mat& valid, double fraction) {
   const int n = cv::connectedComponents(invalid, cc, 8, CV_32S);
   if (n <= 1) return;
   std::vector<int> ring(n, 0), ring_damage(n, 0);
-  // Ring = valid pixels 4-adjacent to an invalid component.
+  // Ring = valid pixels 4-adjacent to an invalid component (each component counted once per pixel).
   for (int v = 0; v < mask.rows; ++v) {
     const int* c = cc.ptr<int>(v);
+    const int* up = v > 0 ? cc.ptr<int>(v - 1) : nullptr;
+    const int* down = v + 1 < mask.rows ? cc.ptr<int>(v + 1) : nullptr;
+    const uchar* m = mask.ptr<uchar>(v);
     for (int u = 0; u < mask.cols; ++u) {
       if (c[u] != 0) continue;
-      const int nb[4][2] = {{u - 1, v}, {u + 1, v}, {u, v - 1}, {u, v + 1}};
+      const int nb[4] = {u > 0 ? c[u - 1] : 0, u + 1 < mask.cols ? c[u + 1] : 0, up ? up[u] : 0, down ? down[u] : 0};
       int last = 0;
-      for (const auto& p : nb) {
-        if (p[0] < 0 || p[1] < 0 || p[0] >= mask.cols || p[1] >= mask.rows) continue;
-        const int id = cc.at<int>(p[1], p[0]);
+      for (int id : nb) {
         if (id == 0 || id == last) continue;
         last = id;
         ++ring[id];
-        ring_damage[id] += mask.at<uchar>(v, u) != 0;
+        ring_damage[id] += m[u] != 0;
       }
     }
   }
@@ -75,14 +77,35 @@ void FillHoles(cv::Mat& mask) {
   mask.setTo(255, holes);
 }
 
-// Snaps the mask to SLIC superpixel boundaries around the candidate regions only (speed).
-void SnapToSuperpixels(cv::Mat& mask, const cv::Mat& z, const cv::Mat& valid, const SegmentOptions& o) {
-  std::vector<cv::Point> nz;
-  cv::findNonZero(mask, nz);
-  if (nz.empty()) return;
-  const int pad = 2 * o.slic_region_size_px;
-  cv::Rect roi = cv::boundingRect(nz);
-  roi = cv::Rect(roi.x - pad, roi.y - pad, roi.width + 2 * pad, roi.height + 2 * pad) & cv::Rect({}, mask.size());
+// Disjoint regions of interest around the candidate regions: each component's bounding box
+// grown by `pad`, overlapping boxes merged until none overlap.
+std::vector<cv::Rect> CandidateRois(const cv::Mat& mask, int pad) {
+  cv::Mat cc, stats, centroids;
+  const int n = cv::connectedComponentsWithStats(mask, cc, stats, centroids, 8, CV_32S);
+  const cv::Rect frame({}, mask.size());
+  std::vector<cv::Rect> rois;
+  for (int i = 1; i < n; ++i)
+    rois.push_back(cv::Rect(stats.at<int>(i, cv::CC_STAT_LEFT) - pad, stats.at<int>(i, cv::CC_STAT_TOP) - pad,
+                            stats.at<int>(i, cv::CC_STAT_WIDTH) + 2 * pad,
+                            stats.at<int>(i, cv::CC_STAT_HEIGHT) + 2 * pad) &
+                   frame);
+  for (bool merged = true; merged;) {
+    merged = false;
+    for (size_t i = 0; i < rois.size() && !merged; ++i)
+      for (size_t j = i + 1; j < rois.size(); ++j)
+        if ((rois[i] & rois[j]).area() > 0) {
+          rois[i] |= rois[j];
+          rois.erase(rois.begin() + static_cast<long>(j));
+          merged = true;
+          break;
+        }
+  }
+  return rois;
+}
+
+// Snaps the mask inside `roi` to SLIC superpixel boundaries.
+void SnapRoiToSuperpixels(cv::Mat& mask, const cv::Mat& z, const cv::Mat& valid, const cv::Rect& roi,
+                          const SegmentOptions& o) {
   // SLIC sees the relief clipped to [-20σ, +5σ] as 8-bit; invalid pixels take the candidate's level
   // so they do not cut superpixels.
   cv::Mat img(roi.size(), CV_8U);
@@ -96,27 +119,43 @@ void SnapToSuperpixels(cv::Mat& mask, const cv::Mat& z, const cv::Mat& valid, co
       out[u] = cv::saturate_cast<uchar>((std::clamp(zz, -20.0, 5.0) + 20.0) * 10.0);
     }
   }
-  auto slic = cv::ximgproc::createSuperpixelSLIC(img, cv::ximgproc::SLICO, o.slic_region_size_px,
+  // Superpixels of 8 px or more are found at half resolution (a quarter of the work; the relief
+  // is box-smoothed over 7 px anyway) and voted on at full resolution.
+  const int k = o.slic_region_size_px >= 8 ? 2 : 1;
+  cv::Mat small = img;
+  if (k > 1) cv::resize(img, small, cv::Size((roi.width + 1) / 2, (roi.height + 1) / 2), 0, 0, cv::INTER_AREA);
+  auto slic = cv::ximgproc::createSuperpixelSLIC(small, cv::ximgproc::SLICO, o.slic_region_size_px / k,
                                                  static_cast<float>(o.slic_ruler));
-  slic->iterate(5);
+  slic->iterate(3);
   cv::Mat sp;
   slic->getLabels(sp);
   const int n = slic->getNumberOfSuperpixels();
   std::vector<int> total(n, 0), hit(n, 0);
   cv::Mat sub = mask(roi);
   for (int v = 0; v < roi.height; ++v) {
-    const int* l = sp.ptr<int>(v);
+    const int* l = sp.ptr<int>(std::min(v / k, sp.rows - 1));
     const uchar* m = sub.ptr<uchar>(v);
     for (int u = 0; u < roi.width; ++u) {
-      ++total[l[u]];
-      hit[l[u]] += m[u] != 0;
+      const int id = l[std::min(u / k, sp.cols - 1)];
+      ++total[id];
+      hit[id] += m[u] != 0;
     }
   }
   for (int v = 0; v < roi.height; ++v) {
-    const int* l = sp.ptr<int>(v);
+    const int* l = sp.ptr<int>(std::min(v / k, sp.rows - 1));
     uchar* m = sub.ptr<uchar>(v);
-    for (int u = 0; u < roi.width; ++u) m[u] = hit[l[u]] >= o.superpixel_vote * total[l[u]] ? 255 : 0;
+    for (int u = 0; u < roi.width; ++u) {
+      const int id = l[std::min(u / k, sp.cols - 1)];
+      m[u] = hit[id] >= o.superpixel_vote * total[id] ? 255 : 0;
+    }
   }
+}
+
+// Snaps the mask to SLIC superpixel boundaries around each group of candidate regions only
+// (work in proportion to the damage, not the frame; disjoint regions run in parallel).
+void SnapToSuperpixels(cv::Mat& mask, const cv::Mat& z, const cv::Mat& valid, const SegmentOptions& o) {
+  const std::vector<cv::Rect> rois = CandidateRois(mask, 2 * o.slic_region_size_px);
+  tbb::parallel_for(size_t(0), rois.size(), [&](size_t i) { SnapRoiToSuperpixels(mask, z, valid, rois[i], o); });
 }
 
 }  // namespace

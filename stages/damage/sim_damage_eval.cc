@@ -199,6 +199,9 @@ SimDamageEvaluation EvaluateSimulatedDamage(const fs::path& dir, const SimDamage
     const auto t0 = std::chrono::steady_clock::now();
     const std::clock_t c0 = std::clock();
     const FrameDamage fd = DetectDamage(disparity, left, g, o.damage);
+    // Scored range: as asked, else the range the damage stage analysed in this frame.
+    const double max_range = o.max_range_m > 0 ? o.max_range_m : fd.analysed_range_m;
+    r.max_range_m = std::max(r.max_range_m, max_range);
     cpu_damage.push_back(1000.0 * double(std::clock() - c0) / CLOCKS_PER_SEC);
     ms_damage.push_back(MsSince(t0));
     steps[0].push_back(fd.ms_road), steps[1].push_back(fd.ms_segment), steps[2].push_back(fd.ms_measure);
@@ -243,7 +246,7 @@ SimDamageEvaluation EvaluateSimulatedDamage(const fs::path& dir, const SimDamage
     auto scored = [&](int t) {
       const auto it = truth.find(t);
       return it != truth.end() && it->second.type == "pothole" && it->second.mean_diameter_m >= o.min_diameter_m &&
-             !border_t.count(t) && (o.max_range_m <= 0 || z_sum_t[t] / area_t[t] <= o.max_range_m);
+             !border_t.count(t) && z_sum_t[t] / area_t[t] <= max_range;
     };
     std::map<int, const DamageInstance*> pothole_det;
     for (const auto& d : fd.instances) {
@@ -324,7 +327,7 @@ SimDamageEvaluation EvaluateSimulatedDamage(const fs::path& dir, const SimDamage
           }
       r.observations.push_back(ob);
     }
-    if (debug_frame && !o.debug_dir.empty()) {
+    if ((debug_frame || o.debug_all_frames) && !o.debug_dir.empty()) {
       fs::create_directories(o.debug_dir);
       cv::Mat overlay = RenderOverlay(left, fd.labels, fd.instances);
       for (const auto& [t, n] : area_t) {
@@ -369,7 +372,7 @@ std::string SimDamageEvaluation::Report() const {
                        s.median_abs, s.p95_abs, s.max_abs, s.n, fmt::arg("u", unit));
   };
   std::string s = fmt::format(
-      "{} frames {}x{}, disparity valid {:.1f} %\n"
+      "{} frames {}x{}, disparity valid {:.1f} %, scored range <= {:.1f} m\n"
       "potholes scored: {} observations of {} potholes; recall {:.3f} ({}/{})\n"
       "pothole detections {}: false {}, on unscored damage {}; precision {:.3f}\n"
       "obstacle pixels reported as damage: {} detections\n"
@@ -379,7 +382,7 @@ std::string SimDamageEvaluation::Report() const {
       "road model: median |true road - fitted| {:.2f} mm\n"
       "time per frame: DetectDamage median {:.1f} ms wall (max {:.1f}), {:.1f} ms CPU (road {:.1f}, segment {:.1f}, measure {:.1f}, cracks {:.1f}); "
       "disparity median {:.1f} ms",
-      frames, width, height, 100 * disparity_valid_fraction, observations.size(), unique_potholes, recall, detected,
+      frames, width, height, 100 * disparity_valid_fraction, max_range_m, observations.size(), unique_potholes, recall, detected,
       observations.size(), detections, false_positives, ignored_detections, precision, obstacle_detections,
       stats(depth_error_mm, " mm"), 100 * depth_within_2sigma, mean_sigma_depth_mm, stats(area_error_pct, " %"),
       stats(volume_error_pct, " %"), 100 * severity_agreement, road_median_abs_mm, ms_damage_median, ms_damage_max,

@@ -21,13 +21,16 @@ struct SimDamageEvalOptions {
   DamageOptions damage;
   double min_diameter_m = 0.3;       ///< truth potholes at least this wide (mean_diameter_m) are scored
   double min_iou = 0.5;              ///< detection ↔ truth mask IoU needed for a match
-  double max_range_m = 0;            ///< > 0: only potholes whose mean camera depth (truth) is nearer are scored
+  /// Only potholes whose mean camera depth (truth) is nearer are scored; 0 = the damage stage's
+  /// analysed range in each frame (FrameDamage::analysed_range_m).
+  double max_range_m = 0;
   int frame_step = 1;                ///< evaluate every n-th frame
   int max_frames = 0;                ///< 0 = all
   double obstacle_margin_m = 0.05;   ///< truth obstacle volume grown by this much
   /// Non-empty: writes overlays (truth outlines green/cyan) and depth images of frames with a miss
   /// or a false detection there, and prints the road fit and overlaps of misses to stderr.
   std::filesystem::path debug_dir;
+  bool debug_all_frames = false;  ///< with debug_dir: write every frame, not only those with a problem
 };
 
 /// One scored truth pothole in one frame.
@@ -76,6 +79,7 @@ struct SimDamageEvaluation {
   double ms_road_median = 0, ms_segment_median = 0, ms_measure_median = 0, ms_cracks_median = 0;  ///< steps (wall)
   double cpu_ms_damage_median = 0;  ///< DetectDamage process CPU time (all threads): the one-core bound
   int width = 0, height = 0;
+  double max_range_m = 0;  ///< scored range used (the largest over the frames)
   std::vector<std::string> false_detections;  ///< "frame id: area, depth, bbox" of each false positive
   /// Multi-line human-readable summary of every figure above.
   std::string Report() const;

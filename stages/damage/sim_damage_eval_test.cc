@@ -4,10 +4,13 @@
 // SimDamageEval.Benchmark (set ROADSURVEY_SIM_EVAL_DIR to a `roadsurvey simulate` folder).
 #include "stages/damage/sim_damage_eval.h"
 
+#include "stages/damage/damage_stage.h"
 #include "stages/simulate/simulate.h"
+#include "tests/support/temp_dirs.h"
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 #include <unistd.h>
 
 #include <cstdlib>
@@ -19,23 +22,14 @@ namespace rs {
 namespace {
 namespace fs = std::filesystem;
 
-// Removes the rendered folders when the test binary exits.
-struct TempDirs {
-  std::vector<fs::path> dirs;
-  ~TempDirs() {
-    std::error_code ec;
-    for (const auto& d : dirs) fs::remove_all(d, ec);
-  }
-};
-TempDirs temp_dirs;
-
-// Renders a preset at half resolution into a temp folder, once per test binary run.
-fs::path RenderSmall(const std::string& preset, int frames, double frame_rate_hz) {
-  const fs::path dir = fs::temp_directory_path() / fmt::format("rs_sim_damage_eval_{}_{}", preset, ::getpid());
+// Renders a preset (at half resolution unless `full`) into a temp folder, once per test binary run.
+fs::path RenderSmall(const std::string& preset, int frames, double frame_rate_hz, bool full = false) {
+  const fs::path dir =
+      fs::temp_directory_path() / fmt::format("rs_sim_damage_eval_{}_{}_{}", preset, full ? 1280 : 640, ::getpid());
   if (fs::exists(dir / "truth/trajectory.tum")) return dir;
-  temp_dirs.dirs.push_back(dir);
+  test::RemoveAtExit(dir);
   SimulationOptions o = PresetOptions(preset);
-  o.image_width = 640, o.image_height = 360, o.focal_px = 500;
+  if (!full) o.image_width = 640, o.image_height = 360, o.focal_px = 500;
   o.num_frames = frames;
   o.frame_rate_hz = frame_rate_hz;
   o.potholes_per_100m = 60;  // more scored potholes per rendered frame
@@ -55,10 +49,10 @@ void ExpectDoneWhen(const SimDamageEvaluation& r) {
   EXPECT_EQ(r.obstacle_detections, 0);
 }
 
-// The damage stage alone (truth disparity): the level reached now, as a regression guard.
-// Measured (640×360, 20 frames, 7 observations of 4 potholes): recall 0.857, precision 1.0,
-// |depth error| ≤ 4.8 mm, |area error| ≤ 13.2 %, |volume error| ≤ 1.5 %, severity 100 %.
-// Not yet the Done-when bounds (recall ≥ 0.95, area ≤ 10 %): see DISABLED_DoneWhen*.
+// The damage stage alone (truth disparity) at half resolution (640×360, focal 500: pixel-sized
+// options cover twice the ground): a regression guard. Measured (7 observations of 4
+// potholes): recall 1.0, precision 1.0, |depth error| ≤ 5.3 mm, |area error| ≤ 16.2 %,
+// |volume error| ≤ 5.6 %, severity 100 %, road model 0.30 mm.
 TEST(SimDamageEval, DroneLowTruthDisparity) {
   SimDamageEvalOptions o;
   o.use_truth_disparity = true;
@@ -76,14 +70,41 @@ TEST(SimDamageEval, DroneLowTruthDisparity) {
   EXPECT_LE(r.road_median_abs_mm, 2.0);  // crowned road followed by the local correction
 }
 
-// The Done-when bounds; failing today (run with --gtest_also_run_disabled_tests).
-TEST(SimDamageEval, DISABLED_DoneWhenTruthDisparity) {
+// The Done-when bounds on the damage stage alone (truth disparity), full resolution (1280×720,
+// 20 frames at 3 Hz, ~6 s CPU each). drone-low: measured (7 observations of 4 potholes)
+// recall 1.0, precision 1.0, |depth error| ≤ 4.5 mm, |area error| ≤ 10.0 %, |volume error|
+// ≤ 1.8 %, severity 100 %.
+TEST(SimDamageEval, DoneWhenTruthDisparityDroneLow) {
   SimDamageEvalOptions o;
   o.use_truth_disparity = true;
-  ExpectDoneWhen(EvaluateSimulatedDamage(RenderSmall("drone-low", 20, 3), o));
+  const SimDamageEvaluation r = EvaluateSimulatedDamage(RenderSmall("drone-low", 20, 3, true), o);
+  std::cout << r.Report() << "\n";
+  ExpectDoneWhen(r);
 }
+// obstacles (denser potholes than the preset: 14 observations of 7): parked cars and a person
+// must not become damage nor bend the road. Measured: recall 0.857 (2 misses), precision 1.0,
+// |depth error| ≤ 7.7 mm, |area error| ≤ 11.2 %, |volume error| ≤ 1.3 %, severity 100 %, no
+// obstacle detection, road model 0.17 mm: a regression guard at that level (recall and area
+// miss the Done-when bounds on this sample).
+TEST(SimDamageEval, ObstaclesTruthDisparity) {
+  SimDamageEvalOptions o;
+  o.use_truth_disparity = true;
+  const SimDamageEvaluation r = EvaluateSimulatedDamage(RenderSmall("obstacles", 20, 3, true), o);
+  std::cout << r.Report() << "\n";
+  ASSERT_GE(r.observations.size(), 10u);
+  EXPECT_GE(r.recall, 0.85);
+  EXPECT_GE(r.precision, 0.95);
+  EXPECT_LE(r.depth_error_mm.max_abs, 10.0);
+  EXPECT_LE(r.area_error_pct.max_abs, 12.0);
+  EXPECT_LE(r.volume_error_pct.max_abs, 15.0);
+  EXPECT_GE(r.severity_agreement, 0.95);
+  EXPECT_EQ(r.obstacle_detections, 0);
+  EXPECT_LE(r.road_median_abs_mm, 1.0);
+}
+// With our own disparity the bounds are not met yet (stereo noise and mismatches, see
+// docs/stages/damage.md); run with --gtest_also_run_disabled_tests.
 TEST(SimDamageEval, DISABLED_DoneWhenComputedDisparity) {
-  ExpectDoneWhen(EvaluateSimulatedDamage(RenderSmall("drone-low", 20, 3), SimDamageEvalOptions()));
+  ExpectDoneWhen(EvaluateSimulatedDamage(RenderSmall("drone-low", 20, 3, true), SimDamageEvalOptions()));
 }
 
 TEST(SimDamageEval, DamageErrorStats) {
@@ -106,7 +127,16 @@ TEST(SimDamageEval, Benchmark) {
   if (const char* step = std::getenv("ROADSURVEY_SIM_EVAL_STEP")) o.frame_step = std::atoi(step);
   o.use_truth_disparity = std::getenv("ROADSURVEY_SIM_EVAL_TRUTH") != nullptr;
   if (const char* range = std::getenv("ROADSURVEY_SIM_EVAL_MAX_RANGE")) o.max_range_m = std::atof(range);
+  if (const char* n = std::getenv("ROADSURVEY_SIM_EVAL_MAX_FRAMES")) o.max_frames = std::atoi(n);
   if (const char* debug = std::getenv("ROADSURVEY_SIM_EVAL_DEBUG")) o.debug_dir = debug;
+  o.debug_all_frames = std::getenv("ROADSURVEY_SIM_EVAL_DEBUG_ALL") != nullptr;
+  if (const char* js = std::getenv("ROADSURVEY_SIM_EVAL_OPTIONS")) {  // e.g. {"segment.rim_depth_m": 0.002}
+    const auto& table = DamageStageOptions::Table();
+    nlohmann::json j = table.ToJson(DamageStageOptions());
+    const nlohmann::json set = nlohmann::json::parse(js);
+    for (const auto& [key, value] : set.items()) j.at(key) = value;
+    o.damage = table.FromJson(j).damage;
+  }
   const SimDamageEvaluation r = EvaluateSimulatedDamage(dir, o);
   std::cout << (o.use_truth_disparity ? "[truth disparity] " : "[computed disparity] ") << dir << "\n"
             << r.Report() << "\n";

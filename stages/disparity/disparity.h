@@ -21,21 +21,29 @@ struct DisparityParams {
   int min_disparity = 0;      ///< plain SGM (and GPT fallback): smallest disparity, px
   int num_disparities = 128;  ///< plain SGM (and GPT fallback): number of disparities, 1..1024
 
+ /// Gaussian blur of both images before the census, px (0 = off): lifts the census above sensor
+  /// noise on weakly textured, far road (simulated road surveys: road D1 1.3 % -> 0.03 % nadir,
+  /// 8 % -> 0.9 % forward-looking; docs/stages/disparity.md).
+  double presmooth_sigma_px = 1.0;
   int census_width = 9;    ///< census window width, odd; width*height <= 65
   int census_height = 7;   ///< census window height, odd
   int ad_weight = 0;       ///< weight of the truncated absolute-difference term (0 = census only)
   int ad_truncation = 20;  ///< truncation of |IL - IR|, grey levels
   int num_paths = 4;       ///< SGM aggregation paths: 4 (horizontal + vertical; default, ~half the cost) or 8
-  int p1 = 10;             ///< SGM penalty for +-1 px disparity changes
-  int p2 = 120;            ///< SGM penalty for larger changes; p1 < p2 <= 1900
+  int p1 = 20;             ///< SGM penalty for +-1 px disparity changes
+  int p2 = 240;            ///< SGM penalty for larger changes; p1 < p2 <= 1900
   bool adaptive_p2 = true; ///< P2' = max(P1, P2 * g / (|dI| + g)) lets disparity jump at intensity edges
   int p2_gradient_scale = 16;  ///< g in the adaptive P2, grey levels
   int uniqueness_ratio = 5;    ///< percent margin the best cost needs over non-neighbouring ones
   SubpixelMode subpixel = SubpixelMode::kEquiangular;  ///< sub-pixel refinement
-  int lr_max_diff = 1;         ///< left-right consistency tolerance, px; < 0 disables
+  int lr_max_diff = 2;         ///< left-right consistency tolerance, px; < 0 disables (1 drops ~1 % of textured road)
   int speckle_window_size = 100;     ///< drop 4-connected regions (|step| <= speckle_max_diff_px) smaller than this; 0 = off
   double speckle_max_diff_px = 1.0;  ///< disparity step allowed inside a speckle region, px
   bool median = true;                ///< 3x3 median over valid neighbours (invalid pixels stay invalid)
+  /// Fill an invalid pixel with the (lower) median of its valid 3x3 neighbours when at least this
+  /// many of the 8 are valid and they agree within speckle_max_diff_px (isolated rejections by the
+  /// uniqueness or left-right check on textured surfaces); 0 = off. Larger holes stay invalid.
+  int fill_min_neighbours = 6;
 
   int gpt_num_disparities = 32;  ///< GPT-SGM residual search range, px (road residual + damage depth)
   double gpt_delta_px = 8;       ///< delta: residual disparity of the road's row minimum; damage down to -delta fits
@@ -45,10 +53,13 @@ struct DisparityParams {
   /// true: warp the target by the exact sub-pixel kappa (MISSION eq. 1, linear interpolation);
   /// false: shift rows by floor(kappa) inside SGM (no resampling).
   bool gpt_subpixel_warp = true;
+  /// With gpt_subpixel_warp: shift every pixel by its own road disparity (road(u, v) - delta) instead
+  /// of each row by its minimum, so the road's residual is delta everywhere (no pixel locking there).
+  bool gpt_pixel_warp = true;
   /// Safeguard against a wrong road model (a non-road plane, obstacles): when fewer than this share
-  /// of the pixels whose road point is visible in the right view get a valid GPT-SGM disparity,
-  /// plain SGM is run instead (fell_back = true). 0 disables.
-  double gpt_min_valid_fraction = 0.8;
+  /// of the textured pixels whose road point is visible in the right view get a valid GPT-SGM
+  /// disparity, plain SGM is run instead (fell_back = true). 0 disables.
+  double gpt_min_valid_fraction = 0.9;
   RoadFitOptions road;  ///< sparse matching and robust road-model fit
 
   /// Throws std::invalid_argument naming the rule broken, e.g. "disparity.p2 = 5 violates p2 > p1 (p1 = 8)".
@@ -60,7 +71,7 @@ struct DisparityParams {
 /// Wall times of the steps, ms.
 struct DisparityTimings {
   double road_model_ms = 0;   ///< sparse matching + robust fit (GPT) or dense fit (SGM)
-  double warp_ms = 0;         ///< kappa + target warp
+  double warp_ms = 0;         ///< kappa + target warp + pre-smoothing
   double census_ms = 0;       ///< both census transforms
   double aggregation_ms = 0;  ///< cost + path aggregation (+ winner-takes-all with 4 paths: fused into the last path)
   double wta_ms = 0;          ///< left-right check (+ winner-takes-all, uniqueness, sub-pixel with 8 paths)
@@ -94,5 +105,10 @@ void FilterSpeckles(cv::Mat* disparity, cv::Mat* valid, int max_size, double max
 
 /// 3x3 median over valid neighbours of each valid pixel (lower median for even counts).
 void MedianValid3x3(cv::Mat* disparity, const cv::Mat& valid);
+
+/// Fills each invalid pixel (not on the image border) whose 8 neighbours include at least
+/// min_neighbours valid ones spanning at most max_spread_px with their lower median, and marks it
+/// valid. Decisions use the input only (filled pixels do not feed other fills). Returns the count.
+int64_t FillSmallHoles(cv::Mat* disparity, cv::Mat* valid, int min_neighbours, double max_spread_px);
 
 }  // namespace rs

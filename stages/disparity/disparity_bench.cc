@@ -2,6 +2,11 @@
 // pairs in one process. Usage: disparity_bench [--data DIR] [--reps N] [--no-middlebury]
 // [--paths 4|8] [--gpt-range N] [--threads N] [--only gpt-sgm|sgm|sgbm|sgbm-3way]
 // or: disparity_bench --fan2021 MODEL3_DIR [--out DIR] [--scale S] (real road pairs -> PNG previews)
+// or: disparity_bench --sim SURVEY_DIR [--sim SURVEY_DIR ...] [--sim-step N] [--sim-frames N]
+//     (simulated surveys: road D1 and pothole MAE beside StereoSGBM, docs/stages/disparity.md)
+// or: disparity_bench --euroc MAV0_DIR [--out DIR] (EuRoC ASL layout, rectified here -> previews,
+//     floor density)
+// Any run: --set NAME=JSON_VALUE sets a stage option (names as in `roadsurvey stages disparity`).
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -21,6 +26,14 @@
 
 #include "stages/disparity/disparity_benchmark.h"
 #include "stages/disparity/disparity_io.h"
+#include "stages/disparity/disparity_stage.h"
+#include "stages/disparity/sim_disparity_eval.h"
+#include "formats/stereo/calibration_readers.h"
+#include "formats/stereo/rectifier.h"
+
+#include <filesystem>
+
+#include <nlohmann/json.hpp>
 
 namespace {
 
@@ -77,14 +90,140 @@ int RunFan2021(const std::string& dir, const std::string& out_dir, double scale,
 
 }  // namespace
 
+// EuRoC ASL layout (raw pairs + sensor.yaml): rectified with StereoRectifier (alpha 0), GPT-SGM
+// per chosen frame. Floor region, independent of GPT-SGM's dense output: pixels where a plain SGM
+// run over [0, 64) lies within 1.5 px of the floor plane (GPT-SGM's road model, fitted to the
+// sparse keypoint matches; the room's walls are the other planes) form the floor mask, which is
+// closed (15x15) and hole-filled
+// (so holes of either matcher count), reduced to its largest connected component and to pixels
+// whose floor point lies inside the right image. Prints density of GPT-SGM inside it.
+int RunEuroc(const std::string& mav0, const std::string& out_dir, rs::DisparityParams params) {
+  namespace fs = std::filesystem;
+  const rs::StereoCalibration raw =
+      rs::ReadEurocSensorPair(fs::path(mav0) / "cam0/sensor.yaml", fs::path(mav0) / "cam1/sensor.yaml");
+  const rs::StereoRectifier rectifier = rs::StereoRectifier::Create(raw, 0.0);
+  std::vector<fs::path> lefts;
+  for (const auto& e : fs::directory_iterator(fs::path(mav0) / "cam0/data")) lefts.push_back(e.path());
+  std::sort(lefts.begin(), lefts.end());
+  params.num_disparities = 64;
+  std::printf("rectified: f = %.1f px, B = %.4f m, %dx%d\n", rectifier.rectified().left.fx,
+              rectifier.rectified().BaselineM(), rectifier.rectified().left.width, rectifier.rectified().left.height);
+  std::printf("| frame | road (floor) model a0, a1, roll | matches / inliers | RMS px | fell back | range | valid (all) | floor pixels | valid on floor |\n"
+              "|---|---|---|---|---|---|---|---|---|\n");
+  for (size_t i = 0; i < lefts.size(); i += 15) {
+    const fs::path rp = fs::path(mav0) / "cam1/data" / lefts[i].filename();
+    cv::Mat l_raw = cv::imread(lefts[i].string(), cv::IMREAD_GRAYSCALE), r_raw = cv::imread(rp.string(), cv::IMREAD_GRAYSCALE);
+    if (l_raw.empty() || r_raw.empty()) continue;  // cam1 lists stamps without images
+    cv::Mat l, r;
+    rectifier.Rectify(l_raw, r_raw, &l, &r);
+    const rs::DisparityResult res = rs::ComputeDisparity(l, r, params);
+    rs::DisparityParams plain = params;
+    plain.method = rs::DisparityMethod::kSgm, plain.min_disparity = 0, plain.num_disparities = 64;
+    const rs::DisparityResult ref = rs::ComputeDisparity(l, r, plain);
+    cv::Mat floor = cv::Mat::zeros(l.size(), CV_8U);
+    if (res.road.reliable && !res.fell_back) {
+      for (int v = 0; v < l.rows; ++v)
+        for (int u = 0; u < l.cols; ++u)
+          if (ref.valid.at<uint8_t>(v, u) && std::abs(ref.disparity.at<float>(v, u) - res.road.At(u, v)) <= 1.5)
+            floor.at<uint8_t>(v, u) = 255;
+      cv::morphologyEx(floor, floor, cv::MORPH_CLOSE, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(15, 15)));
+      cv::Mat holes = floor.clone();  // flood the background from the border; what is left unreached is a hole
+      cv::copyMakeBorder(holes, holes, 1, 1, 1, 1, cv::BORDER_CONSTANT, 0);
+      cv::floodFill(holes, cv::Point(0, 0), 255);
+      floor |= ~holes(cv::Rect(1, 1, l.cols, l.rows));
+      cv::Mat labels, stats, centroids;
+      const int n = cv::connectedComponentsWithStats(floor, labels, stats, centroids, 8);
+      int best = 0;
+      for (int k = 1; k < n; ++k)
+        if (best == 0 || stats.at<int>(k, cv::CC_STAT_AREA) > stats.at<int>(best, cv::CC_STAT_AREA)) best = k;
+      floor = labels == best;
+      if (best == 0) floor.setTo(0);
+      for (int v = 0; v < l.rows; ++v)
+        for (int u = 0; u < l.cols; ++u)
+          if (u - res.road.At(u, v) < 0) floor.at<uint8_t>(v, u) = 0;
+    }
+    const int64_t n_floor = cv::countNonZero(floor), n_valid = cv::countNonZero(floor & res.valid);
+    const rs::RoadModel& m = res.road;
+    const std::string name = lefts[i].stem().string();
+    std::printf("| %zu (%s) | %.2f, %.4f, %.2f deg | %d / %d | %.2f | %s | %d | %.1f %% | %lld | %.1f %% |\n", i, name.c_str(),
+                m.a0, m.a1, m.roll_rad * 180 / M_PI, m.num_matches, m.num_inliers, m.residual_rms_px,
+                res.fell_back ? "yes" : "no", res.num_disparities, 100 * res.valid_fraction,
+                static_cast<long long>(n_floor), n_floor ? 100.0 * n_valid / n_floor : 0.0);
+    if (out_dir.empty()) continue;
+    const std::string base = out_dir + "/disparity_euroc_v101_" + std::to_string(i);
+    cv::imwrite(base + "_disparity.jpg", rs::ColorizeDisparity(res.disparity, res.valid, 0, 48),
+                {cv::IMWRITE_JPEG_QUALITY, 90});  // a PNG of this colour map is ~155 KB
+    cv::Mat overlay;  // left image with the floor region tinted
+    cv::cvtColor(l, overlay, cv::COLOR_GRAY2BGR);
+    overlay.setTo(cv::Scalar(0, 160, 0), floor & (res.valid == 0));
+    for (int v = 0; v < l.rows; ++v)
+      for (int u = 0; u < l.cols; ++u)
+        if (floor.at<uint8_t>(v, u) && res.valid.at<uint8_t>(v, u)) {
+          cv::Vec3b& c = overlay.at<cv::Vec3b>(v, u);
+          c = {static_cast<uint8_t>(c[0] / 2), static_cast<uint8_t>(c[1] / 2 + 100), static_cast<uint8_t>(c[2] / 2)};
+        }
+    cv::imwrite(base + "_floor.jpg", overlay, {cv::IMWRITE_JPEG_QUALITY, 85});
+  }
+  return 0;
+}
+
+// Error map of GPT-SGM on a simulated pair: grey = not evaluated (darker: not road), green = road
+// within 0.3 px, cyan = road 0.3..1 px, yellow = road 1..3 px, red = road D1 error, blue = road invalid, magenta = pothole
+// error > 0.5 px. Written as <out>/<survey>_<frame>_errors.png.
+void WriteErrorMap(const rs::StereoPairWithTruth& p, const rs::DisparityParams& params, const std::string& out) {
+  const rs::DisparityResult r = rs::ComputeDisparity(p.left, p.right, params);
+  cv::Mat img;
+  cv::cvtColor(p.left, img, cv::COLOR_GRAY2BGR);
+  img = img * 0.5;
+  for (int v = 0; v < p.gt.rows; ++v)
+    for (int u = 0; u < p.gt.cols; ++u) {
+      const float g = p.gt.at<float>(v, u);
+      const bool ok = r.valid.at<uint8_t>(v, u) != 0;
+      const double e = std::abs(r.disparity.at<float>(v, u) - g);
+      cv::Vec3b& c = img.at<cv::Vec3b>(v, u);
+      if (p.road.at<uint8_t>(v, u)) {
+        if (!ok) c = {255, 0, 0};
+        else if (e > 3 && e > 0.05 * g) c = {0, 0, 255};
+        else if (e > 1) c = {0, 255, 255};
+        else if (e > 0.3) c = {255, 255, 0};  // cyan: 0.3..1 px, already ~4-12 cm of depth at 6 m
+        else c = {c[0], static_cast<uint8_t>(std::min(255, c[1] + 80)), c[2]};
+      } else if (p.pothole.at<uint8_t>(v, u) && ok && e > 0.5) {
+        c = {255, 0, 255};
+      }
+    }
+  // Signed road error by the truth's fractional disparity (pixel locking shows as a sawtooth).
+  double sum[10] = {0}, cnt[10] = {0}, total = 0, n_total = 0;
+  for (int v = 0; v < p.gt.rows; ++v)
+    for (int u = 0; u < p.gt.cols; ++u)
+      if (p.road.at<uint8_t>(v, u) && r.valid.at<uint8_t>(v, u)) {
+        const float g = p.gt.at<float>(v, u), e = r.disparity.at<float>(v, u) - g;
+        if (std::abs(e) > 1) continue;
+        const int b = std::min(9, static_cast<int>((g - std::floor(g)) * 10));
+        sum[b] += e, cnt[b] += 1, total += e, n_total += 1;
+      }
+  std::printf("%s: road signed error mean %.3f px; by frac(gt) 0.0..0.9:", p.name.c_str(), total / std::max(1.0, n_total));
+  for (int b = 0; b < 10; ++b) std::printf(" %.3f", cnt[b] ? sum[b] / cnt[b] : 0.0);
+  std::printf("\n");
+  std::string name = p.name;
+  std::replace(name.begin(), name.end(), '/', '_');
+  cv::imwrite(out + "/" + name + "_errors.png", img);
+  std::printf("%s: road model %s (matches %d, inliers %d, rms %.2f px, c = %.2f %.4f %.4f), fell back %d, range %d\n",
+              p.name.c_str(), r.road.reliable ? "reliable" : "unreliable", r.road.num_matches, r.road.num_inliers,
+              r.road.residual_rms_px, r.road.c[0], r.road.c[1], r.road.c[2], r.fell_back, r.num_disparities);
+}
+
 int main(int argc, char** argv) {
   std::string data = std::getenv("ROADSURVEY_DATA") ? std::getenv("ROADSURVEY_DATA") : "";
   int reps = 5;
   bool middlebury = true;
   rs::DisparityParams params;
   int threads = 0;
-  std::string fan_dir, out_dir, only;
+  std::string fan_dir, out_dir, only, euroc_dir;
   double fan_scale = 0.5;
+  std::vector<std::string> sims;
+  int sim_range = 0;  // > 0: plain-SGM range of the simulated pairs instead of their truth's
+  rs::SimulatedPairOptions sim_options;
+  nlohmann::json option_json = rs::DisparityStageOptions::Table().ToJson(rs::DisparityStageOptions{});
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--data") && i + 1 < argc) data = argv[++i];
     else if (!std::strcmp(argv[i], "--reps") && i + 1 < argc) reps = std::atoi(argv[++i]);
@@ -96,9 +235,34 @@ int main(int argc, char** argv) {
     else if (!std::strcmp(argv[i], "--threads") && i + 1 < argc) threads = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "--paths") && i + 1 < argc) params.num_paths = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "--gpt-range") && i + 1 < argc) params.gpt_num_disparities = std::atoi(argv[++i]);
-    else {
+    else if (!std::strcmp(argv[i], "--sim") && i + 1 < argc) sims.push_back(argv[++i]);
+    else if (!std::strcmp(argv[i], "--euroc") && i + 1 < argc) euroc_dir = argv[++i];
+    else if (!std::strcmp(argv[i], "--sim-step") && i + 1 < argc) sim_options.frame_step = std::atoi(argv[++i]);
+    else if (!std::strcmp(argv[i], "--sim-frames") && i + 1 < argc) sim_options.max_frames = std::atoi(argv[++i]);
+    else if (!std::strcmp(argv[i], "--sim-first") && i + 1 < argc) sim_options.first_frame = std::atoi(argv[++i]);
+    else if (!std::strcmp(argv[i], "--sim-range") && i + 1 < argc) sim_range = std::atoi(argv[++i]);
+    else if (!std::strcmp(argv[i], "--set") && i + 1 < argc) {
+      const std::string kv = argv[++i];
+      const auto eq = kv.find('=');
+      if (eq == std::string::npos || !option_json.contains(kv.substr(0, eq))) {
+        std::fprintf(stderr, "--set %s: expected NAME=VALUE with a disparity stage option NAME\n", kv.c_str());
+        return 2;
+      }
+      try {
+        option_json[kv.substr(0, eq)] = nlohmann::json::parse(kv.substr(eq + 1));
+      } catch (const std::exception&) {
+        option_json[kv.substr(0, eq)] = kv.substr(eq + 1);  // a bare word: an enum or string
+      }
+      const int paths = params.num_paths, range = params.gpt_num_disparities;
+      params = rs::DisparityStageOptions::Table().FromJson(option_json).params;
+      if (kv.substr(0, eq) != "num_paths") params.num_paths = paths;
+      if (kv.substr(0, eq) != "gpt_num_disparities") params.gpt_num_disparities = range;
+    } else {
       std::fprintf(stderr, "usage: disparity_bench [--data DIR] [--reps N] [--no-middlebury] [--paths 4|8] [--gpt-range N] [--threads N] [--only METHOD]\n"
-                         "       disparity_bench --fan2021 MODEL3_DIR [--out DIR] [--scale S]\n");
+                         "       disparity_bench --fan2021 MODEL3_DIR [--out DIR] [--scale S]\n"
+                         "       disparity_bench --euroc MAV0_DIR [--out DIR]\n"
+                         "       disparity_bench --sim SURVEY_DIR... [--sim-step N] [--sim-frames N] [--sim-first N] [--sim-range N]\n"
+                         "       (any: --set OPTION=VALUE)\n");
       return 2;
     }
   }
@@ -108,7 +272,25 @@ int main(int argc, char** argv) {
     cv::setNumThreads(threads);
   }
   try {
+    params.Check();
     if (!fan_dir.empty()) return RunFan2021(fan_dir, out_dir, fan_scale, params);
+    if (!euroc_dir.empty()) return RunEuroc(euroc_dir, out_dir, params);
+    if (!sims.empty()) {
+      std::vector<rs::StereoPairWithTruth> pairs;
+      for (const auto& dir : sims) {
+        auto p = rs::LoadSimulatedSurvey(dir, sim_options);
+        pairs.insert(pairs.end(), std::make_move_iterator(p.begin()), std::make_move_iterator(p.end()));
+      }
+      if (sim_range > 0)
+        for (auto& p : pairs) p.num_disparities = sim_range;
+      if (!out_dir.empty()) {
+        for (const auto& p : pairs) WriteErrorMap(p, params, out_dir);
+        return 0;
+      }
+      const auto results = rs::RunDisparityBenchmark(pairs, params, reps, only);
+      std::printf("%s\n", rs::FormatRoadAccuracyTable(results).c_str());
+      return 0;
+    }
     std::vector<rs::StereoPairWithTruth> pairs;
     pairs.push_back(rs::MakeSyntheticRoadPair(rs::SyntheticRoadOptions{}));
     if (middlebury && !data.empty()) {

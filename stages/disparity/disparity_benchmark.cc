@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cstdio>
 #include <ctime>
+#include <map>
 
 #include <opencv2/calib3d.hpp>
 
@@ -84,6 +85,7 @@ std::vector<BenchPairResult> RunDisparityBenchmark(const std::vector<StereoPairW
           r.eval.all = EvaluateDisparity(d, valid, p.gt);
           r.eval.nonocc = EvaluateDisparity(d, valid, p.gt, p.nonocc);
           if (!p.road.empty()) r.eval.masked = EvaluateDisparity(d, valid, p.gt, p.road);
+          if (!p.pothole.empty()) r.eval.pothole = EvaluateDisparity(d, valid, p.gt, p.pothole);
         }
       }
     }
@@ -96,7 +98,7 @@ std::vector<BenchPairResult> RunDisparityBenchmark(const std::vector<StereoPairW
 
 std::string FormatStepTimes(const std::vector<BenchPairResult>& results) {
   std::string s =
-      "| pair | method | road model | warp | census | cost+aggregation | WTA+LR | post | transform | total |\n"
+      "| pair | method | road model | warp + smooth | census | cost+aggregation | WTA+LR | post | transform | total |\n"
       "|---|---|---|---|---|---|---|---|---|---|\n";
   char buf[512];
   for (const auto& p : results)
@@ -126,6 +128,65 @@ std::string FormatBenchmarkTable(const std::vector<BenchPairResult>& results) {
                     100 * r.eval.nonocc.density, 100 * r.eval.nonocc.bad2, 100 * r.eval.nonocc.d1, r.eval.nonocc.epe);
       s += buf;
     }
+  return s;
+}
+
+std::string FormatRoadAccuracyTable(const std::vector<BenchPairResult>& results) {
+  struct Acc {
+    std::vector<DisparityMetrics> road, pothole;
+    std::vector<double> wall, cpu;
+    int fell_back = 0, range_min = 1 << 30, range_max = 0;
+  };
+  std::map<std::string, std::map<std::string, Acc>> groups;  // survey -> method -> pooled
+  std::vector<std::string> order;
+  std::map<std::string, int> frames;
+  for (const auto& p : results) {
+    const std::string survey = p.pair.substr(0, p.pair.find('/'));
+    bool any = false;
+    for (const auto& r : p.methods) {
+      if (r.eval.masked.evaluated == 0 && r.eval.pothole.evaluated == 0) continue;
+      Acc& a = groups[survey][r.method];
+      a.road.push_back(r.eval.masked), a.pothole.push_back(r.eval.pothole);
+      a.wall.push_back(r.median_ms), a.cpu.push_back(r.median_cpu_ms);
+      a.fell_back += r.fell_back;
+      a.range_min = std::min(a.range_min, r.num_disparities), a.range_max = std::max(a.range_max, r.num_disparities);
+      any = true;
+    }
+    if (!any) continue;
+    if (!frames[survey]++) order.push_back(survey);
+  }
+  std::string s =
+      "| survey | pairs | method | range | road density | road D1 | D1 / best SGBM's | road bad-1 | road EPE px | "
+      "pothole pixels | pothole density | pothole MAE px | wall ms/pair | CPU ms/pair | CPU / sgbm-3way |\n"
+      "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+  char buf[768];
+  const char* methods[] = {"gpt-sgm", "sgm", "sgbm", "sgbm-3way"};
+  for (const auto& survey : order) {
+    auto& g = groups[survey];
+    double best_sgbm_d1 = -1;
+    for (const char* m : {"sgbm", "sgbm-3way"})
+      if (g.count(m)) {
+        const double d1 = PoolMetrics(g[m].road).d1;
+        best_sgbm_d1 = best_sgbm_d1 < 0 ? d1 : std::min(best_sgbm_d1, d1);
+      }
+    const double cpu_3way = g.count("sgbm-3way") ? Median(g["sgbm-3way"].cpu) : 0.0;
+    for (const char* m : methods) {
+      if (!g.count(m)) continue;
+      Acc& a = g[m];
+      const DisparityMetrics road = PoolMetrics(a.road), ph = PoolMetrics(a.pothole);
+      const std::string range =
+          a.range_min == a.range_max ? std::to_string(a.range_min) : std::to_string(a.range_min) + "–" + std::to_string(a.range_max);
+      const std::string fb = a.fell_back ? " (" + std::to_string(a.fell_back) + " fell back)" : "";
+      const double cpu = Median(a.cpu);
+      std::snprintf(buf, sizeof(buf),
+                    "| %s | %d | %s%s | %s | %.2f %% | %.3f %% | %s | %.2f %% | %.3f | %lld | %.1f %% | %.3f | %.1f | %.1f | %.2f |\n",
+                    survey.c_str(), frames[survey], m, fb.c_str(), range.c_str(), 100 * road.density, 100 * road.d1,
+                    best_sgbm_d1 > 0 ? std::to_string(road.d1 / best_sgbm_d1).substr(0, 4).c_str() : "–",
+                    100 * road.bad1, road.epe, static_cast<long long>(ph.evaluated), 100 * ph.density, ph.epe,
+                    Median(a.wall), cpu, cpu_3way > 0 ? cpu / cpu_3way : 0.0);
+      s += buf;
+    }
+  }
   return s;
 }
 

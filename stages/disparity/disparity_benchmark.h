@@ -52,6 +52,11 @@ std::vector<BenchPairResult> RunDisparityBenchmark(const std::vector<StereoPairW
 /// Markdown table of our methods' step times (last repetition), ms.
 std::string FormatStepTimes(const std::vector<BenchPairResult>& results);
 
+/// Markdown table of road and pothole accuracy (pairs that carry those masks), one row per
+/// survey and method: metrics pooled over the survey's pairs (pair names "<survey>/<frame>"),
+/// median times over its pairs, road D1 beside the better StereoSGBM mode's.
+std::string FormatRoadAccuracyTable(const std::vector<BenchPairResult>& results);
+
 /// Markdown table: pair, method, ms/pair, pairs/s, ratio to sgbm-3way, density, bad-2 and D1 (non-occluded), EPE.
 std::string FormatBenchmarkTable(const std::vector<BenchPairResult>& results);
 

@@ -156,4 +156,23 @@ StereoPairWithTruth MakeSyntheticRoadPair(const SyntheticRoadOptions& o) {
   return p;
 }
 
+DisparityMetrics PoolMetrics(const std::vector<DisparityMetrics>& parts) {
+  DisparityMetrics t;
+  double n_valid = 0;
+  for (const auto& m : parts) {
+    const double n = double(m.evaluated), k = m.density * n;
+    t.evaluated += m.evaluated, n_valid += k;
+    t.bad1 += m.bad1 * n, t.bad2 += m.bad2 * n, t.bad3 += m.bad3 * n, t.d1 += m.d1 * n;
+    t.bad1_est += m.bad1_est * k, t.bad2_est += m.bad2_est * k, t.bad3_est += m.bad3_est * k;
+    t.d1_est += m.d1_est * k, t.epe += m.epe * k;
+  }
+  if (t.evaluated == 0) return DisparityMetrics{};
+  const double n = double(t.evaluated);
+  t.density = n_valid / n;
+  t.bad1 /= n, t.bad2 /= n, t.bad3 /= n, t.d1 /= n;
+  if (n_valid > 0)
+    t.bad1_est /= n_valid, t.bad2_est /= n_valid, t.bad3_est /= n_valid, t.d1_est /= n_valid, t.epe /= n_valid;
+  return t;
+}
+
 }  // namespace rs

@@ -25,6 +25,7 @@ struct DisparityMetrics {
 /// Metrics over all truth pixels, non-occluded ones, and a caller's mask (e.g. road).
 struct DisparityEvaluation {
   DisparityMetrics all, nonocc, masked;
+  DisparityMetrics pothole;  ///< over StereoPairWithTruth::pothole (simulated surveys)
 };
 
 /// est: CV_32F disparity; est_valid: CV_8U (non-zero valid); gt: CV_32F (0 = unknown);
@@ -43,6 +44,7 @@ struct StereoPairWithTruth {
   cv::Mat gt;           ///< CV_32F disparity of the left view, 0 = unknown
   cv::Mat nonocc;       ///< CV_8U non-occluded truth pixels
   cv::Mat road;         ///< CV_8U evaluation mask (synthetic: undamaged road); may be empty
+  cv::Mat pothole;      ///< CV_8U pothole pixels (simulated surveys); may be empty
   int min_disparity = 0, num_disparities = 64;  ///< search range matching the scene
 };
 
@@ -63,5 +65,9 @@ struct SyntheticRoadOptions {
   unsigned seed = 7;
 };
 StereoPairWithTruth MakeSyntheticRoadPair(const SyntheticRoadOptions& options);
+
+/// Pools metrics as if all pixels were one image: plain fields weighted by evaluated pixels,
+/// *_est fields and EPE by valid estimates.
+DisparityMetrics PoolMetrics(const std::vector<DisparityMetrics>& parts);
 
 }  // namespace rs

@@ -48,6 +48,8 @@ const OptionTable<DisparityParams>& ParamsTable() {
                "px")
           .Min(1)
           .Max(1024)
+          .Add("presmooth_sigma_px", &DisparityParams::presmooth_sigma_px,
+               "Gaussian blur of both images before the census (0 = off)", "px").Min(0)
           .Add("census_width", &DisparityParams::census_width, "census window width (odd)", "px").Min(1)
           .Add("census_height", &DisparityParams::census_height, "census window height (odd)", "px").Min(1)
           .Add("ad_weight", &DisparityParams::ad_weight, "weight of the truncated absolute-difference cost (0 = off)")
@@ -74,6 +76,9 @@ const OptionTable<DisparityParams>& ParamsTable() {
                "px")
           .Min(0)
           .Add("median", &DisparityParams::median, "3x3 median over valid neighbours")
+          .Add("fill_min_neighbours", &DisparityParams::fill_min_neighbours,
+               "fill an invalid pixel from its valid 3x3 neighbours when at least this many agree within "
+               "speckle_max_diff_px (0 = off)").Min(0).Max(8)
           .Add("gpt_num_disparities", &DisparityParams::gpt_num_disparities,
                "GPT-SGM residual search range (road residual + damage depth)", "px")
           .Min(1)
@@ -87,8 +92,11 @@ const OptionTable<DisparityParams>& ParamsTable() {
           .Add("gpt_expand_range", &DisparityParams::gpt_expand_range, "widen the GPT range when roll needs it")
           .Add("gpt_subpixel_warp", &DisparityParams::gpt_subpixel_warp,
                "warp the target by the exact sub-pixel shift (else whole-pixel row shifts)")
+          .Add("gpt_pixel_warp", &DisparityParams::gpt_pixel_warp,
+               "with gpt_subpixel_warp: shift each pixel by its road disparity (road residual = delta everywhere) "
+               "instead of each row by its minimum")
           .Add("gpt_min_valid_fraction", &DisparityParams::gpt_min_valid_fraction,
-               "fall back to plain SGM when a smaller share of road pixels gets a valid GPT-SGM disparity")
+               "fall back to plain SGM when a smaller share of the textured pixels whose road point is visible gets a valid GPT-SGM disparity")
           .Min(0)
           .Max(1)
           .Include("road", &DisparityParams::road, RoadFitTable());

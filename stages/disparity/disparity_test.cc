@@ -169,7 +169,7 @@ TEST(Disparity, RealRoadAgreesWithPlainSgm) {
 }
 
 // Oracle: OpenCV's filterSpeckles on the 1/16-px fixed-point copy. Patches of random size and
-// level (steps of 0..2 px between neighbours), holes, and a height that splits into several strips.
+// level (steps of 0..2 px between neighbours), holes, and runs broken at every kind of step.
 TEST(Disparity, FilterSpecklesMatchesOpenCv) {
   const int W = 157, H = 301;
   cv::Mat d(H, W, CV_32F), valid(H, W, CV_8U);
@@ -227,6 +227,44 @@ TEST(Disparity, MedianValid3x3MatchesNaive) {
       mismatches += got.at<float>(v, u) != want;
     }
   EXPECT_EQ(mismatches, 0);
+}
+
+// Small-hole filling against its definition: an invalid interior pixel with >= k valid
+// 8-neighbours spanning <= max_spread takes their lower median; everything else is untouched.
+TEST(Disparity, FillSmallHolesMatchesDefinition) {
+  const int W = 67, H = 31, k = 6;
+  const double spread = 1.0;
+  cv::Mat d(H, W, CV_32F), valid(H, W, CV_8U);
+  cv::RNG rng(11);
+  for (int v = 0; v < H; ++v)
+    for (int u = 0; u < W; ++u) {
+      // Smooth plane with a noisy patch (spread > 1 px there) so both outcomes occur.
+      d.at<float>(v, u) = static_cast<float>(20 + 0.05 * u + (u > 40 ? rng.uniform(0.0, 3.0) : rng.uniform(0.0, 0.4)));
+      valid.at<uint8_t>(v, u) = rng.uniform(0, 10) < 2 ? 0 : 255;
+    }
+  cv::Mat got = d.clone(), got_valid = valid.clone();
+  const int64_t filled = FillSmallHoles(&got, &got_valid, k, spread);
+  int64_t expected_fills = 0, mismatches = 0;
+  for (int v = 0; v < H; ++v)
+    for (int u = 0; u < W; ++u) {
+      float want = d.at<float>(v, u);
+      bool want_valid = valid.at<uint8_t>(v, u) != 0;
+      if (!want_valid && v > 0 && v + 1 < H && u > 0 && u + 1 < W) {
+        std::vector<float> n;
+        for (int y = v - 1; y <= v + 1; ++y)
+          for (int x = u - 1; x <= u + 1; ++x)
+            if (valid.at<uint8_t>(y, x)) n.push_back(d.at<float>(y, x));
+        std::sort(n.begin(), n.end());
+        if (static_cast<int>(n.size()) >= k && n.back() - n.front() <= spread)
+          want = n[(n.size() - 1) / 2], want_valid = true, ++expected_fills;
+      }
+      mismatches += (got_valid.at<uint8_t>(v, u) != 0) != want_valid || (want_valid && got.at<float>(v, u) != want);
+    }
+  EXPECT_EQ(mismatches, 0);
+  EXPECT_EQ(filled, expected_fills);
+  EXPECT_GT(expected_fills, 20);  // the fixture exercises filling ...
+  EXPECT_LT(cv::countNonZero(got_valid), W * H);  // ... and refusals
+  EXPECT_EQ(FillSmallHoles(&got, &got_valid, 0, spread), 0);  // 0 = off
 }
 
 TEST(Disparity, BadParams) {

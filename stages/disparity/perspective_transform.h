@@ -23,6 +23,13 @@ std::vector<double> ComputeGptShift(const RoadModel& road, int width, int height
 /// the target replicate its border (those pixels cannot match and the left-right check drops them).
 cv::Mat WarpTarget(const cv::Mat& target_gray8, const std::vector<double>& kappa);
 
+/// Per-pixel variant of the warp: I_t'(u, v) = I_t(u - s(u, v), v) with s = road(u, v) - delta_px,
+/// linear interpolation (1/256 weights), borders replicated. The road's residual disparity is then
+/// delta everywhere (not only at the row minimum), so on the road the matcher sees one integer
+/// disparity (delta integer) and sub-pixel interpolation has no pixel-locking bias there. A
+/// disparity l found on (I_r, I_t') means d = l + s(u - l, v).
+cv::Mat WarpTargetPerPixel(const cv::Mat& target_gray8, const RoadModel& road, double delta_px);
+
 /// True disparity d = l + kappa(v) on valid pixels, 0 elsewhere (CV_32F).
 cv::Mat TrueFromWarpedDisparity(const cv::Mat& warped_disparity, const cv::Mat& valid,
                                 const std::vector<double>& kappa);

@@ -1,5 +1,8 @@
 #include "stages/disparity/perspective_transform.h"
 
+#include <algorithm>
+#include <cmath>
+
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
@@ -37,6 +40,61 @@ TEST(PerspectiveTransform, Nominal) {
   const cv::Mat t = TransformedDisparity(d, valid, road, 8.0);
   EXPECT_NEAR(t.at<float>(50, 199), 8.0, 1e-4);                          // on the row minimum: delta
   EXPECT_NEAR(t.at<float>(50, 0), 8.0 - (road.At(0, 50) - road.At(199, 50)), 1e-4);
+}
+
+// Per-pixel warp: every pixel shifted by its own road disparity minus delta, linear weights.
+TEST(PerspectiveTransform, PerPixelWarpFollowsTheRoad) {
+  cv::Mat right(60, 240, CV_8U);
+  cv::RNG rng(3);
+  rng.fill(right, cv::RNG::UNIFORM, 0, 256);
+  RoadModel road;
+  road.SetPlane(30.0, -0.02, 0.05);  // d = 30 - 0.02 u + 0.05 v: a roll along the row
+  const double delta = 8.0;
+  const cv::Mat w = WarpTargetPerPixel(right, road, delta);
+  int checked = 0;
+  for (int v = 0; v < 60; v += 5)
+    for (int u = 60; u < 240; u += 11) {
+      const double x = u - (road.At(u, v) - delta), f = x - std::floor(x);
+      const int x0 = static_cast<int>(std::floor(x));
+      const double expect = (1 - f) * right.at<uint8_t>(v, x0) + f * right.at<uint8_t>(v, x0 + 1);
+      EXPECT_NEAR(w.at<uint8_t>(v, u), expect, 1.01) << u << "," << v;  // 1/256 weights, rounding
+      ++checked;
+    }
+  EXPECT_GT(checked, 100);
+  // A road point at u appears in the warped target at u - l with l = delta / (1 - c_u) (planar
+  // road: the warp's shift at the matched column differs by c_u l); d = l + s(u - l, v) with
+  // s = road - delta gives back road(u, v) exactly.
+  const int u = 150, v = 30;
+  const double l = delta / (1 - road.c[1]);
+  EXPECT_NEAR(l + road.At(u - l, v) - delta, road.At(u, v), 1e-9);
+}
+
+// Quadratic (cambered) road: the vectorised source columns give exactly the interpolation with
+// weights lround(frac * 256) of the per-pixel formula, sampled with border clamping.
+TEST(PerspectiveTransform, PerPixelWarpQuadraticMatchesFormula) {
+  const int W = 203, H = 41;  // odd width: vector loops and their scalar tails both run
+  cv::Mat right(H, W, CV_8U);
+  cv::RNG rng(5);
+  rng.fill(right, cv::RNG::UNIFORM, 0, 256);
+  RoadModel road;
+  road.SetPlane(25.0, -0.03, 0.07);
+  road.quadratic = true;
+  road.c[3] = 2.5e-4, road.c[4] = -1e-4, road.c[5] = 3e-4;
+  const double delta = 6.0;
+  const cv::Mat w = WarpTargetPerPixel(right, road, delta);
+  int mismatches = 0, clamped = 0;
+  for (int v = 0; v < H; ++v)
+    for (int u = 0; u < W; ++u) {
+      const double a = road.c[0] + road.c[2] * v + road.c[5] * v * v - delta, b = road.c[1] + road.c[4] * v;
+      const double x = u - (a + (b + road.c[3] * u) * u), fl = std::floor(x);
+      const int x0 = static_cast<int>(fl), wb = static_cast<int>(std::lround((x - fl) * 256.0));
+      const int i0 = std::clamp(x0, 0, W - 1), i1 = std::clamp(x0 + 1, 0, W - 1);
+      const int expect = (right.at<uint8_t>(v, i0) * (256 - wb) + right.at<uint8_t>(v, i1) * wb + 128) >> 8;
+      mismatches += w.at<uint8_t>(v, u) != expect;
+      clamped += x0 < 0 || x0 + 1 > W - 1;
+    }
+  EXPECT_EQ(mismatches, 0);
+  EXPECT_GT(clamped, 0);  // the border clamps are exercised
 }
 
 TEST(PerspectiveTransform, KappaRowMismatch) {

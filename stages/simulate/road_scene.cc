@@ -13,7 +13,7 @@ constexpr double kDeg = kPi / 180.0;
 
 inline double Clamp01(double x) { return x < 0 ? 0 : (x > 1 ? 1 : x); }
 inline double SmoothStep(double a, double b, double x) {
-  const double t = Clamp01((x - a) / (b - a));
+  const double t = Clamp01((x - a) * (1.0 / (b - a)));  // constant a, b: folds to one multiply
   return t * t * (3 - 2 * t);
 }
 
@@ -28,7 +28,7 @@ inline double Bilinear(const std::vector<T>& v, int ns, int i0, int j0, double w
   return (v00 * (1 - wi) + v10 * wi) * (1 - wj) + (v01 * (1 - wi) + v11 * wi) * wj;
 }
 
-/// atan(k / 8), k = 0..8: the anchors of AtanRel's range reduction.
+/// atan(k / 8), k = 0..8: the anchors of Atan2Fast's range reduction.
 const std::array<double, 9> kAtanEighths = [] {
   std::array<double, 9> a{};
   for (int k = 0; k <= 8; ++k) a[k] = std::atan(k / 8.0);
@@ -37,20 +37,23 @@ const std::array<double, 9> kAtanEighths = [] {
 
 /// atan2(y, x) for the common case x > 0, |y| <= x (angles within 45 deg), at
 /// full double precision for a fraction of libm's cost: atan(a) = atan(k/8) +
-/// atan(u), u = (a - k/8) / (1 + a k/8), |u| <= 1/16, and atan(u) by its Taylor
-/// series to u^13 (truncation < 1e-19). Other quadrants go to std::atan2.
-/// ToRoad runs several times per rendered pixel on curved roads, which made
-/// libm's atan2 the renderer's largest single cost.
+/// atan(u), a = |y| / x, u = (|y| - x k/8) / (x + |y| k/8), |u| <= 1/16, and
+/// atan(u) by its Taylor series to u^11 (truncation < 2e-17 rad), evaluated in
+/// Estrin's form (short dependency chain). k = round(8 a) is found by
+/// comparisons, so the only division is the one in u. Other quadrants go to
+/// std::atan2. ToRoad runs at least once per rendered pixel on curved roads, and
+/// its chain of sqrt and divisions was the renderer's largest cost.
 inline double Atan2Fast(double y, double x) {
-  if (!(x > 0) || std::abs(y) > x) return std::atan2(y, x);
-  const double z = y / x, a = std::abs(z);
-  const int k = static_cast<int>(a * 8.0 + 0.5);
+  const double ay = std::abs(y);
+  if (!(x > 0) || ay > x) return std::atan2(y, x);
+  const double y8 = 8.0 * ay;
+  int k = 0;
+  for (int j = 0; j < 8; ++j) k += y8 > (j + 0.5) * x ? 1 : 0;
   const double q = k * 0.125;
-  const double u = (a - q) / (1.0 + a * q), u2 = u * u;
-  const double p =
-      u * (1.0 + u2 * (-1.0 / 3 + u2 * (1.0 / 5 + u2 * (-1.0 / 7 + u2 * (1.0 / 9 + u2 * (-1.0 / 11 + u2 * (1.0 / 13)))))));
+  const double u = (ay - q * x) / (x + q * ay), u2 = u * u, u4 = u2 * u2;
+  const double p = u * ((1.0 - u2 * (1.0 / 3)) + u4 * ((1.0 / 5 - u2 * (1.0 / 7)) + u4 * (1.0 / 9 - u2 * (1.0 / 11))));
   const double r = kAtanEighths[k] + p;
-  return z < 0 ? -r : r;
+  return y < 0 ? -r : r;
 }
 
 }  // namespace
@@ -76,7 +79,8 @@ RoadGeometry::RoadGeometry(const SimulationOptions& o)
       half_width_(o.road_width_m / 2),
       kerb_height_(o.kerb_height_m),
       cos0_(std::cos(heading0_)),
-      sin0_(std::sin(heading0_)) {
+      sin0_(std::sin(heading0_)),
+      rho_(curvature_ != 0 ? 1.0 / curvature_ : 0.0) {
   if (curvature_ != 0) {
     centre_ = Eigen::Vector2d(-std::sin(heading0_), std::cos(heading0_)) / curvature_;
   } else {
@@ -93,23 +97,24 @@ Eigen::Vector2d RoadGeometry::ToWorld(double s, double l) const {
 
 void RoadGeometry::ToRoad(double x, double y, double* s, double* l, double* cos_h, double* sin_h) const {
   if (curvature_ == 0) {
-    const double c = std::cos(heading0_), sn = std::sin(heading0_);
-    *s = c * x + sn * y;
-    *l = -sn * x + c * y;
-    if (cos_h) *cos_h = c, *sin_h = sn;
+    *s = cos0_ * x + sin0_ * y;
+    *l = -sin0_ * x + cos0_ * y;
+    if (cos_h) *cos_h = cos0_, *sin_h = sin0_;
     return;
   }
   const double vx = x - centre_.x(), vy = y - centre_.y();
   const double r = std::sqrt(vx * vx + vy * vy);
-  const double rho = 1.0 / curvature_;
-  const double sg = rho > 0 ? 1.0 : -1.0;
-  *l = rho - sg * r;
-  // n(s) = -v / (sg r) = (-sin h, cos h)
-  const double nx = -vx * sg / r, ny = -vy * sg / r;
-  if (cos_h) *cos_h = ny, *sin_h = -nx;
-  // Heading relative to heading0_, in [-pi, pi]: (cos, sin) of h - heading0_.
-  const double c_rel = ny * cos0_ - nx * sin0_, s_rel = -nx * cos0_ - ny * sin0_;
-  *s = Atan2Fast(s_rel, c_rel) / curvature_;
+  const double m = rho_ > 0 ? -1.0 : 1.0;
+  *l = rho_ + m * r;
+  // n(s) = m v / r = (-sin h, cos h). The heading relative to heading0_ is the
+  // angle of (cos, sin) of h - heading0_, here scaled by r: atan2 needs no 1/r.
+  const double c_rel = m * (vy * cos0_ - vx * sin0_), s_rel = m * (-vx * cos0_ - vy * sin0_);
+  *s = Atan2Fast(s_rel, c_rel) * rho_;
+  if (cos_h) {
+    const double k = m / r;
+    *cos_h = vy * k;
+    *sin_h = -vx * k;
+  }
 }
 
 double RoadGeometry::IntactZ(double s, double l, double* dz_ds, double* dz_dl) const {
@@ -148,26 +153,43 @@ RoadScene::RoadScene(const SimulationOptions& o, double s_view_min, double s_vie
   const double az = o.sun_azimuth_deg * kDeg, el = o.sun_elevation_deg * kDeg;
   lighting_.sun_world = Eigen::Vector3d(std::sin(az) * std::cos(el), std::cos(az) * std::cos(el), std::sin(el));
   lighting_.shadows = o.shadows;
+  sun_gain_ = (1 - lighting_.ambient) / lighting_.sun_world.z();
   markings_ = o.lane_markings;
 
   PlaceDamage(o, s_view_min, s_view_max);
   PlaceObstacles(o, s_view_min, s_view_max);
 
-  bin_s0_ = std::floor(s_view_min) - 1;
-  bins_.assign(static_cast<size_t>(std::ceil(s_view_max - bin_s0_)) + 2, {});
+  // Damage lookup grid over [grid_s0_, s_view_max + 3] x [-grid_l_, grid_l_]: each cell lists the damages
+  // whose patch overlaps it, so most surface samples test no damage at all.
+  grid_s0_ = std::floor(s_view_min) - 1;
+  grid_l_ = kGridCell;
+  for (const Damage& d : damages_)
+    grid_l_ = std::max({grid_l_, std::abs(d.l0) + kGridCell, std::abs(d.l_max()) + kGridCell});
+  grid_ns_ = static_cast<int>(std::ceil((s_view_max + 3 - grid_s0_) / kGridCell));
+  grid_nl_ = static_cast<int>(std::ceil(2 * grid_l_ / kGridCell));
+  std::vector<std::vector<int>> cells(static_cast<size_t>(grid_ns_) * grid_nl_);
+  auto cell_of = [](double x, int n) { return std::clamp(static_cast<int>(std::floor(x / kGridCell)), 0, n - 1); };
   for (size_t k = 0; k < damages_.size(); ++k) {
     const Damage& d = damages_[k];
-    const int b0 = std::max(0, static_cast<int>(std::floor(d.s0 - bin_s0_)));
-    const int b1 = std::min(static_cast<int>(bins_.size()) - 1, static_cast<int>(std::floor(d.s_max() - bin_s0_)));
-    for (int b = b0; b <= b1; ++b) bins_[b].push_back(static_cast<int>(k));
+    if (d.s_max() < grid_s0_ || d.s0 >= grid_s0_ + grid_ns_ * kGridCell) continue;
+    const int i0 = cell_of(d.s0 - grid_s0_, grid_ns_), i1 = cell_of(d.s_max() - grid_s0_, grid_ns_);
+    const int j0 = cell_of(d.l0 + grid_l_, grid_nl_), j1 = cell_of(d.l_max() + grid_l_, grid_nl_);
+    for (int i = i0; i <= i1; ++i)
+      for (int j = j0; j <= j1; ++j) cells[static_cast<size_t>(i) * grid_nl_ + j].push_back(static_cast<int>(k));
+  }
+  grid_start_.assign(cells.size() + 1, 0);
+  for (size_t c = 0; c < cells.size(); ++c) {
+    grid_start_[c + 1] = grid_start_[c] + static_cast<int>(cells[c].size());
+    grid_items_.insert(grid_items_.end(), cells[c].begin(), cells[c].end());
   }
 }
 
 const Damage* RoadScene::DamageAt(double s, double l) const {
-  const double fb = s - bin_s0_;
-  if (fb < 0 || fb >= static_cast<double>(bins_.size())) return nullptr;
-  for (int k : bins_[static_cast<size_t>(fb)]) {
-    const Damage& d = damages_[k];
+  const double fs = (s - grid_s0_) * (1.0 / kGridCell), fl = (l + grid_l_) * (1.0 / kGridCell);
+  if (!(fs >= 0 && fs < grid_ns_ && fl >= 0 && fl < grid_nl_)) return nullptr;
+  const size_t c = static_cast<size_t>(fs) * grid_nl_ + static_cast<size_t>(fl);
+  for (int q = grid_start_[c]; q < grid_start_[c + 1]; ++q) {
+    const Damage& d = damages_[grid_items_[q]];
     if (s >= d.s0 && s < d.s_max() && l >= d.l0 && l < d.l_max()) return &d;
   }
   return nullptr;
@@ -175,7 +197,9 @@ const Damage* RoadScene::DamageAt(double s, double l) const {
 
 RoadScene::SurfaceSample RoadScene::Surface(double s, double l) const {
   SurfaceSample out;
-  out.z = road_.IntactZ(s, l, &out.dz_ds, &out.dz_dl);
+  out.z = out.intact_z = road_.IntactZ(s, l, &out.dz_ds, &out.dz_dl);
+  out.intact_dz_ds = out.dz_ds;
+  out.intact_dz_dl = out.dz_dl;
   const Damage* d = DamageAt(s, l);
   if (!d) return out;
   out.damage = d;
@@ -214,10 +238,10 @@ int RoadScene::LabelAt(double x, double y) const {
   return d->mask[static_cast<size_t>(j) * d->ns + i] ? d->id : 0;
 }
 
-float RoadScene::BaseAlbedo(double s, double l, double fp) const {
+float RoadScene::BaseAlbedo(double s, double l, double inv_fp) const {
   // Octaves finer than ~1.75 px fade to their mean: a cheap, deterministic
   // prefilter, so left and right views of a point agree and nothing aliases.
-  auto w = [fp](double scale) { return Clamp01(scale / fp - 0.75); };
+  auto w = [inv_fp](double scale) { return Clamp01(scale * inv_fp - 0.75); };
   const NoiseTable& t = *noise_;
   const double a = std::abs(l), hw = road_.half_width();
   const double stain = octaves_[3].At(t, s, l) - 0.5;
@@ -327,8 +351,57 @@ bool RoadScene::ObstacleHit(const Eigen::Vector3d& o, const Eigen::Vector3d& d, 
   return any;
 }
 
+bool RoadScene::MarchToSurface(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double max_range, double* t,
+                               double* s, double* l, double* ch, double* sh, SurfaceSample* S) const {
+  // March down from above the highest possible surface near (s, l), then bisect.
+  double ts = (road_.SmoothZ(*s, *l) - o.z()) / d.z();
+  for (int it = 0; it < 4; ++it) {
+    const Eigen::Vector3d p = o + ts * d;
+    road_.ToRoad(p.x(), p.y(), s, l);
+    ts = (road_.SmoothZ(*s, *l) - o.z()) / d.z();
+  }
+  const double dzt = -d.z();
+  double ta = std::max(0.0, ts - 0.5 / dzt);
+  const double tb_limit = ts + 0.5 / dzt;
+  auto F = [&](double tt) {
+    const Eigen::Vector3d p = o + tt * d;
+    road_.ToRoad(p.x(), p.y(), s, l, ch, sh);
+    *S = Surface(*s, *l);
+    return p.z() - S->z;
+  };
+  double fa = F(ta);
+  const double slope_bound = dzt + std::sqrt(d.x() * d.x() + d.y() * d.y());
+  for (int it = 0; it < 2000 && ta < tb_limit && ta < max_range; ++it) {
+    const double tb = ta + std::max(fa, 0.002) / slope_bound;
+    const double fb = F(tb);
+    if (fb <= 0) {
+      double lo = ta, hi = tb;
+      for (int k = 0; k < 30; ++k) {
+        const double mid = 0.5 * (lo + hi);
+        (F(mid) > 0 ? lo : hi) = mid;
+      }
+      *t = hi;
+      F(hi);
+      return true;
+    }
+    ta = tb;
+    fa = fb;
+  }
+  return false;
+}
+
+double RayHit::StartOnPlane(const Eigen::Vector3d& o, const Eigen::Vector3d& d) const {
+  if (!road) return std::numeric_limits<double>::quiet_NaN();
+  const double den = d.z() - (intact_grad.x() * d.x() + intact_grad.y() * d.y());
+  if (den > -1e-4) return std::numeric_limits<double>::quiet_NaN();
+  const double num =
+      intact_z + intact_grad.x() * (o.x() - p_world.x()) + intact_grad.y() * (o.y() - p_world.y()) - o.z();
+  const double t = num / den;
+  return t > 0 ? t : std::numeric_limits<double>::quiet_NaN();
+}
+
 RayHit RoadScene::Cast(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double pixel_angle_rad,
-                       double z_start) const {
+                       double z_start, double t_guess) const {
   RayHit out;
   constexpr double kMaxRange = 300.0;
   double t_obs = kMaxRange;
@@ -336,69 +409,58 @@ RayHit RoadScene::Cast(const Eigen::Vector3d& o, const Eigen::Vector3d& d, doubl
   const Obstacle* obs = nullptr;
   const bool hit_obs = !obstacles_.empty() && ObstacleHit(o, d, kMaxRange, &t_obs, &n_obs, &obs);
 
-  // Road surface: Newton on f(t) = ray z - surface z, started on the smooth road
-  // under the ray origin; a bracketing march handles kerb faces and pothole walls.
+  // Road surface: Newton on f(t) = ray z - surface z, started on a neighbour's
+  // tangent plane or the smooth road under the ray origin; a bracketing march
+  // handles kerb faces and pothole walls.
   bool hit_surf = false;
   double t = 0, s = 0, l = 0;
   double ch = 1, sh = 0;  // centreline direction at s: from ToRoad, so shading needs no cos/sin of the heading
   SurfaceSample S;
-  if (d.z() < -1e-4) {
-    if (std::isnan(z_start)) {
-      road_.ToRoad(o.x(), o.y(), &s, &l);
-      z_start = road_.SmoothZ(s, l);
-    }
-    t = (z_start - o.z()) / d.z();
-    bool converged = false;
+  // Newton from t0. With from_guess, a start below the surface is refused: the
+  // first crossing would lie behind it.
+  int newton_evals = 0;
+  auto newton = [&](double t0, bool from_guess) {
+    t = t0;
+    newton_evals = 0;
     for (int it = 0; it < 8 && t > 0 && t < kMaxRange; ++it) {
       const Eigen::Vector3d p = o + t * d;
       road_.ToRoad(p.x(), p.y(), &s, &l, &ch, &sh);
       S = Surface(s, l);
+      ++newton_evals;
       const double f = p.z() - S.z;
-      if (std::abs(f) < 1e-5) {
-        converged = true;
-        break;
-      }
+      if (std::abs(f) < 1e-5) return true;
+      if (from_guess && it == 0 && f < 0) return false;
       const double gs = S.dz_ds / road_.Stretch(l);
       const double gx = gs * ch - S.dz_dl * sh, gy = gs * sh + S.dz_dl * ch;
       const double fp = d.z() - (gx * d.x() + gy * d.y());
-      if (fp > -1e-3) break;  // surface as steep as the ray: Newton unreliable here
+      if (fp > -1e-3) return false;  // surface as steep as the ray: Newton unreliable here
       t -= f / fp;
     }
-    if (!converged) {
-      // March down from above the highest possible surface, then bisect.
-      double ts = (road_.SmoothZ(s, l) - o.z()) / d.z();
-      for (int it = 0; it < 4; ++it) {
-        const Eigen::Vector3d p = o + ts * d;
-        road_.ToRoad(p.x(), p.y(), &s, &l);
-        ts = (road_.SmoothZ(s, l) - o.z()) / d.z();
-      }
-      const double dzt = -d.z();
-      double ta = std::max(0.0, ts - 0.5 / dzt), tb_limit = ts + 0.5 / dzt;
-      auto F = [&](double tt) {
-        const Eigen::Vector3d p = o + tt * d;
-        road_.ToRoad(p.x(), p.y(), &s, &l, &ch, &sh);
-        S = Surface(s, l);
-        return p.z() - S.z;
-      };
-      double fa = F(ta);
-      const double slope_bound = dzt + std::sqrt(d.x() * d.x() + d.y() * d.y());
-      for (int it = 0; it < 2000 && ta < tb_limit && ta < kMaxRange; ++it) {
-        const double tb = ta + std::max(fa, 0.002) / slope_bound;
-        const double fb = F(tb);
-        if (fb <= 0) {
-          double lo = ta, hi = tb;
-          for (int k = 0; k < 30; ++k) {
-            const double mid = 0.5 * (lo + hi);
-            (F(mid) > 0 ? lo : hi) = mid;
-          }
-          t = hi;
-          F(t);
+    return false;
+  };
+  if (d.z() < -1e-4) {
+    // A neighbour's tangent plane lands within micrometres of intact road: one
+    // evaluation instead of ~3. Where Newton had to move off that plane into
+    // damage, the ray may cross the surface more than once: the search from the
+    // road under the origin runs as well and the nearer crossing wins.
+    bool converged = t_guess > 0 && t_guess < kMaxRange && newton(t_guess, true);
+    if (!converged || (S.damage && newton_evals > 1)) {
+      const bool have_guess = converged;
+      const double t_g = t, s_g = s, l_g = l, ch_g = ch, sh_g = sh;
+      const SurfaceSample S_g = S;
+      auto keep_nearer_guess = [&] {
+        if (have_guess && (!converged || t_g < t)) {
+          t = t_g, s = s_g, l = l_g, ch = ch_g, sh = sh_g, S = S_g;
           converged = true;
-          break;
         }
-        ta = tb;
-        fa = fb;
+      };
+      if (std::isnan(z_start)) {
+        road_.ToRoad(o.x(), o.y(), &s, &l);
+        z_start = road_.SmoothZ(s, l);
       }
+      converged = newton((z_start - o.z()) / d.z(), false);
+      if (!converged) converged = MarchToSurface(o, d, kMaxRange, &t, &s, &l, &ch, &sh, &S);
+      keep_nearer_guess();
     }
     hit_surf = converged && t > 0 && t < kMaxRange;
   }
@@ -411,7 +473,7 @@ RayHit RoadScene::Cast(const Eigen::Vector3d& o, const Eigen::Vector3d& d, doubl
     const Eigen::Vector3d& p = out.p_world;
     const double tex = octaves_[2].At(*noise_, p.x() + 0.7 * p.z(), p.y() - 0.5 * p.z());
     const double alb = obs->albedo * (0.8 + 0.4 * tex);
-    const double irr = L.ambient + (1 - L.ambient) * std::max(0.0, n_obs.dot(L.sun_world)) / L.sun_world.z();
+    const double irr = L.ambient + sun_gain_ * std::max(0.0, n_obs.dot(L.sun_world));
     out.radiance = static_cast<float>(L.exposure * alb * irr);
     return out;
   }
@@ -420,21 +482,28 @@ RayHit RoadScene::Cast(const Eigen::Vector3d& o, const Eigen::Vector3d& d, doubl
   out.hit = true;
   out.t = t;
   out.p_world = o + t * d;
-  const double gs = S.dz_ds / road_.Stretch(l);
-  const Eigen::Vector3d n =
-      Eigen::Vector3d(-(gs * ch - S.dz_dl * sh), -(gs * sh + S.dz_dl * ch), 1.0).normalized();
-  const double footprint = t * pixel_angle_rad / std::max(0.2, -n.dot(d));
-  double alb = BaseAlbedo(s, l, footprint);
+  // Per-pixel shading: one division or square root per quantity, no more (they dominate the latency).
+  const double inv_stretch = 1.0 / road_.Stretch(l);
+  out.road = true;
+  out.intact_z = S.intact_z;
+  const double gis = S.intact_dz_ds * inv_stretch;
+  out.intact_grad = Eigen::Vector2d(gis * ch - S.intact_dz_dl * sh, gis * sh + S.intact_dz_dl * ch);
+  const double gs = S.dz_ds * inv_stretch;
+  const Eigen::Vector3d n_raw(-(gs * ch - S.dz_dl * sh), -(gs * sh + S.dz_dl * ch), 1.0);
+  const Eigen::Vector3d n = n_raw * (1.0 / std::sqrt(n_raw.squaredNorm()));
+  const double inv_footprint = std::max(0.2, -n.dot(d)) / (t * pixel_angle_rad);
+  double alb = BaseAlbedo(s, l, inv_footprint);
   if (S.damage) {
     const Damage& dm = *S.damage;
     const int i0 = std::clamp(static_cast<int>(std::floor(S.fi)), 0, dm.ns - 2);
     const int j0 = std::clamp(static_cast<int>(std::floor(S.fj)), 0, dm.nl - 2);
     alb *= Bilinear(dm.albedo_mul, dm.ns, i0, j0, Clamp01(S.fi - i0), Clamp01(S.fj - j0), nullptr, nullptr);
-    const int i = std::clamp(static_cast<int>(std::lround(S.fi)), 0, dm.ns - 1);
-    const int j = std::clamp(static_cast<int>(std::lround(S.fj)), 0, dm.nl - 1);
+    // Nearest cell (floor(x + 0.5): no libm lround call per pixel; halves only differ below 0, clamped anyway).
+    const int i = std::clamp(static_cast<int>(std::floor(S.fi + 0.5)), 0, dm.ns - 1);
+    const int j = std::clamp(static_cast<int>(std::floor(S.fj + 0.5)), 0, dm.nl - 1);
     if (dm.mask[static_cast<size_t>(j) * dm.ns + i]) out.label = static_cast<uint16_t>(dm.id);
   }
-  double irr = L.ambient + (1 - L.ambient) * std::max(0.0, n.dot(L.sun_world)) / L.sun_world.z();
+  double irr = L.ambient + sun_gain_ * std::max(0.0, n.dot(L.sun_world));
   if (L.shadows && !obstacles_.empty()) {
     double ts;
     Eigen::Vector3d ns;

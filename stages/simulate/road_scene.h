@@ -46,6 +46,7 @@ class RoadGeometry {
  private:
   double heading0_, curvature_, grade_, crossfall_, half_width_, kerb_height_;
   double cos0_, sin0_;      // direction of the centreline at s = 0
+  double rho_;              // signed radius 1 / curvature_ (0 when straight)
   Eigen::Vector2d centre_;  // centre of the arc (unused when straight)
 };
 
@@ -92,9 +93,19 @@ struct Obstacle {
 struct RayHit {
   bool hit = false;
   double t = 0;                  ///< ray parameter (ray direction unit length: metres)
-  Eigen::Vector3d p_world;       ///< hit point
+  Eigen::Vector3d p_world = Eigen::Vector3d::Zero();  ///< hit point
   float radiance = 0;            ///< shaded brightness in [0, ~1.5] before camera effects
   uint16_t label = 0;            ///< damage id or 0
+  /// Road hits: the tangent plane of the intact (undamaged) surface at the hit,
+  /// z = intact_z + intact_grad . (xy - p_world.xy). A neighbouring pixel's ray
+  /// meets the road within micrometres of this plane (StartOnPlane).
+  bool road = false;
+  double intact_z = 0;
+  Eigen::Vector2d intact_grad = Eigen::Vector2d::Zero();
+
+  /// Ray parameter where ray (o, d) meets this hit's intact tangent plane, NaN
+  /// when there is none (no road hit, ray not descending onto the plane).
+  double StartOnPlane(const Eigen::Vector3d& o, const Eigen::Vector3d& d) const;
 };
 
 /// Parameters that describe the rendered appearance.
@@ -126,18 +137,28 @@ class RoadScene {
   /// Casts a ray (origin o, unit direction d) against road and obstacles and
   /// shades the hit. pixel_angle_rad: angular size of a pixel, for texture filtering.
   /// z_start: surface height to start the search at (NaN: the smooth road under o).
+  /// t_guess: a ray parameter near the hit (RayHit::StartOnPlane of a neighbouring
+  /// pixel), used when it lies on or above the surface; the hit found is the same
+  /// surface point to within the solver tolerance (10 um in height).
   RayHit Cast(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double pixel_angle_rad,
-              double z_start = std::numeric_limits<double>::quiet_NaN()) const;
+              double z_start = std::numeric_limits<double>::quiet_NaN(),
+              double t_guess = std::numeric_limits<double>::quiet_NaN()) const;
 
  private:
   struct SurfaceSample {
     double z = 0, dz_ds = 0, dz_dl = 0;
+    double intact_z = 0, intact_dz_ds = 0, intact_dz_dl = 0;
     const Damage* damage = nullptr;
     double fi = 0, fj = 0;  // continuous cell coordinates inside the damage patch
   };
   SurfaceSample Surface(double s, double l) const;
+  /// Bounded march along the ray from above the road near (s, l), then bisection:
+  /// the first crossing where Newton cannot converge (kerb faces, pothole walls).
+  bool MarchToSurface(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double max_range, double* t, double* s,
+                      double* l, double* ch, double* sh, SurfaceSample* S) const;
   const Damage* DamageAt(double s, double l) const;
-  float BaseAlbedo(double s, double l, double footprint_m) const;
+  /// Albedo of the intact road at (s, l); inv_footprint: 1 / pixel footprint on the ground (1/m), for filtering.
+  float BaseAlbedo(double s, double l, double inv_footprint) const;
   bool ObstacleHit(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double t_max, double* t,
                    Eigen::Vector3d* n, const Obstacle** which) const;
 
@@ -148,11 +169,15 @@ class RoadScene {
   std::vector<Damage> damages_;
   std::vector<Obstacle> obstacles_;
   Lighting lighting_;
+  double sun_gain_ = 1;  // (1 - ambient) / sun z: flat road under the sun gets irradiance 1
   std::unique_ptr<NoiseTable> noise_;
   std::vector<Octave> octaves_;
-  // Damage lookup: bins of 1 m along s.
-  double bin_s0_ = 0;
-  std::vector<std::vector<int>> bins_;
+  // Damage lookup: grid of kGridCell cells in (s, l); cell c lists damages_
+  // indices grid_items_[grid_start_[c] .. grid_start_[c + 1]).
+  static constexpr double kGridCell = 0.25;
+  double grid_s0_ = 0, grid_l_ = 0;
+  int grid_ns_ = 0, grid_nl_ = 0;
+  std::vector<int> grid_start_, grid_items_;
   double dash_ = 3.0, gap_ = 5.0;
   bool markings_ = true;
 };

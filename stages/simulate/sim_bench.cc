@@ -1,6 +1,6 @@
-// sim_bench: prints the simulator's rendering throughput (1280x720 stereo pairs
-// per second, with truth) for a preset; with an output folder, also times a
-// whole Simulate() run writing every file.
+// sim_bench: prints the simulator's throughput (1280x720 stereo pairs per
+// second, rendered with truth and written as PNGs) for a preset; with an output
+// folder, also times a whole Simulate() run writing every file.
 //   Usage: sim_bench [preset] [pairs] [threads] [out_dir]
 #include <cstdio>
 #include <cstdlib>
@@ -18,9 +18,9 @@ int main(int argc, char** argv) {
     const rs::RenderBenchmark b = rs::BenchmarkRender(o, pairs, threads);
     std::printf(
         "sim_bench preset=%s %dx%d pairs=%d threads=%d: %.2f stereo pairs/s wall, %.2f per CPU-second "
-        "-> %.2f pairs/s on %d idle cores\n",
+        "-> %.2f pairs/s on %d idle cores (load average %.1f; %s)\n",
         preset.c_str(), o.image_width, o.image_height, pairs, threads, b.pairs_per_s, b.pairs_per_cpu_s,
-        b.PairsPerSecondOnIdleCores(), threads);
+        b.PairsPerSecondOnIdleCores(), threads, b.load_average, rs::RenderBenchmark::Includes());
     if (argc > 4) {
       const rs::SimulationSummary summary = rs::Simulate(o, argv[4]);
       std::printf("sim_bench Simulate(): %s\n", summary.BriefReport().c_str());

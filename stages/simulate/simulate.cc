@@ -5,12 +5,13 @@
 #include <fstream>
 #include <stdexcept>
 
+#include <stdlib.h>  // getloadavg
+#include <unistd.h>  // getpid
+
 #include <GeographicLib/LocalCartesian.hpp>
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <tbb/global_control.h>
-#include <tbb/parallel_invoke.h>
 
 #include "formats/dataflash/dataflash_writer.h"
 #include "formats/flightlog/track_csv.h"
@@ -18,6 +19,7 @@
 #include "formats/ulog/ulog_writer.h"
 #include "stages/simulate/flight_log_sim.h"
 #include "stages/simulate/flight_path.h"
+#include "stages/simulate/frame_writer.h"
 #include "stages/simulate/road_scene.h"
 #include "stages/simulate/stereo_renderer.h"
 #include "stages/simulate/truth_writers.h"
@@ -42,21 +44,6 @@ void ViewRange(const SimulationOptions& o, const sim::FlightPath& path, double* 
   }
   *s0 = std::max(*s0, 1.0);
   *s1 = std::min(*s1, o.road_length_m - 1.0);
-}
-
-void WriteImage(const fs::path& path, const cv::Mat& img, const std::vector<int>& params) {
-  if (!cv::imwrite(path.string(), img, params)) throw std::runtime_error("cannot write " + path.string());
-}
-
-std::vector<Eigen::Isometry3d> ExposurePoses(const SimulationOptions& o, const sim::FlightPath& path, int k) {
-  const double t = k / o.frame_rate_hz;
-  const int n = o.motion_blur_samples;
-  std::vector<Eigen::Isometry3d> poses;
-  for (int i = 0; i < n; ++i) {
-    const double dt = n > 1 ? o.exposure_s * (static_cast<double>(i) / (n - 1) - 0.5) : 0.0;
-    poses.push_back(path.T_world_cam(t + dt));
-  }
-  return poses;
 }
 
 }  // namespace
@@ -93,43 +80,19 @@ SimulationSummary Simulate(const SimulationOptions& o, const fs::path& out, cons
   const sim::StereoRenderer renderer(scene, o, calib);
   const GeographicLib::LocalCartesian enu(o.origin_lat_deg, o.origin_lon_deg, o.origin_h_m);
 
-  for (const char* d : {"left", "right", "truth/disparity", "truth/masks"}) fs::create_directories(out / d);
-  const std::string ext = o.image_format == "jpg" ? ".jpg" : ".png";
-  const std::vector<int> img_params = o.image_format == "jpg"
-                                          ? std::vector<int>{cv::IMWRITE_JPEG_QUALITY, o.jpeg_quality}
-                                          : std::vector<int>{cv::IMWRITE_PNG_COMPRESSION, 1};
-  const std::vector<int> truth_params = {cv::IMWRITE_PNG_COMPRESSION, 3};
-  const double fb = calib.left.fx * calib.BaselineM();
-
+  const sim::FrameWriter writer(o, out, calib.left.fx * calib.BaselineM());
   std::ofstream ts(out / "timestamps.csv");
   ts << "filename,t_ns\n";
   std::vector<int64_t> cam_t_ns;
   std::vector<Eigen::Isometry3d> poses;
-  double render_s = 0;
-  for (int k = 0; k < o.num_frames; ++k) {
-    const std::string name = fmt::format("{:06d}", k);
-    const auto exposure = ExposurePoses(o, path, k);
-    const uint64_t key = sim::HashCombine(static_cast<uint64_t>(o.seed), 1000 + static_cast<uint64_t>(k));
-    sim::RenderedView left, right;
-    const auto t_render = Clock::now();
-    renderer.Render(exposure, 0, key, true, &left);
-    renderer.Render(exposure, 1, key, false, &right);
-    render_s += Seconds(t_render);
-    tbb::parallel_invoke(
-        [&] { WriteImage(out / "left" / (name + ext), left.gray, img_params); },
-        [&] { WriteImage(out / "right" / (name + ext), right.gray, img_params); },
-        [&] {
-          if (o.rectified) {
-            WriteImage(out / "truth/disparity" / (name + ".png"), sim::DisparityFromDepth(left.depth_m, fb),
-                       truth_params);
-          }
-        },
-        [&] { WriteImage(out / "truth/masks" / (name + ".png"), left.label, truth_params); });
-    cam_t_ns.push_back(sim::CameraTimeNs(o, k));
-    poses.push_back(exposure[exposure.size() / 2]);
-    ts << name << ext << "," << cam_t_ns.back() << "\n";
-    if (progress) progress(k + 1, o.num_frames);
-  }
+  const double render_s =
+      sim::RenderAndWriteFrames(o, path, renderer, writer, 0, o.num_frames, [&](int k, const std::string& name) {
+        cam_t_ns.push_back(sim::CameraTimeNs(o, k));
+        const auto exposure = sim::ExposurePoses(o, path, k);
+        poses.push_back(exposure[exposure.size() / 2]);
+        ts << name << writer.ext() << "," << cam_t_ns.back() << "\n";
+        if (progress) progress(k + 1, o.num_frames);
+      });
   ts.close();
   if (!ts) throw std::runtime_error("cannot write " + (out / "timestamps.csv").string());
 
@@ -192,6 +155,10 @@ SimulationSummary Simulate(const SimulationOptions& o, const fs::path& out, cons
   return summary;
 }
 
+const char* RenderBenchmark::Includes() {
+  return "per pair: left + right rendered with truth, disparity converted, 4 PNGs encoded and written";
+}
+
 RenderBenchmark BenchmarkRender(const SimulationOptions& o, int pairs, int threads) {
   o.Check();
   tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<size_t>(std::max(1, threads)));
@@ -202,19 +169,25 @@ RenderBenchmark BenchmarkRender(const SimulationOptions& o, int pairs, int threa
   const sim::RoadScene scene(o, s0, s1);
   const StereoCalibration calib = sim::MakeCalibration(o);
   const sim::StereoRenderer renderer(scene, o, calib);
-  sim::RenderedView left, right;
-  renderer.Render(ExposurePoses(o, path, 0), 0, 1, true, &left);  // warm-up
+  const fs::path dir = fs::temp_directory_path() / fmt::format("roadsurvey-sim-bench-{}", ::getpid());
+  struct Cleanup {
+    fs::path dir;
+    ~Cleanup() {
+      std::error_code ec;
+      fs::remove_all(dir, ec);
+    }
+  } cleanup{dir};
+  const sim::FrameWriter writer(o, dir, calib.left.fx * calib.BaselineM());
+  sim::RenderAndWriteFrames(o, path, renderer, writer, 0, 1);  // warm-up
   const auto t0 = Clock::now();
   const std::clock_t c0 = std::clock();  // process CPU time, all threads
-  for (int k = 0; k < pairs; ++k) {
-    const auto exposure = ExposurePoses(o, path, k % o.num_frames);
-    renderer.Render(exposure, 0, static_cast<uint64_t>(k), true, &left);
-    renderer.Render(exposure, 1, static_cast<uint64_t>(k), false, &right);
-  }
+  sim::RenderAndWriteFrames(o, path, renderer, writer, 0, pairs);
   RenderBenchmark b;
-  b.pairs_per_s = pairs / Seconds(t0);
   b.pairs_per_cpu_s = pairs / (static_cast<double>(std::clock() - c0) / CLOCKS_PER_SEC);
+  b.pairs_per_s = pairs / Seconds(t0);
   b.threads = std::max(1, threads);
+  double load[1];
+  if (::getloadavg(load, 1) == 1) b.load_average = load[0];
   return b;
 }
 

@@ -36,17 +36,24 @@ SimulationSummary Simulate(const SimulationOptions& options, const std::filesyst
 /// Writes the survey.json that makes `out_dir` a survey for `roadsurvey run`.
 void WriteSurveyJson(const std::filesystem::path& path, const std::string& name);
 
-/// Rendering throughput measured by BenchmarkRender().
+/// Simulator throughput measured by BenchmarkRender(): whole stereo pairs, i.e.
+/// left and right views rendered (1 ray per pixel, truth depth and labels for the
+/// left), the truth disparity converted, and the four PNGs (left, right,
+/// disparity, mask) encoded and written, exactly as Simulate() does per frame.
 struct RenderBenchmark {
-  double pairs_per_s = 0;           ///< stereo pairs per wall-clock second
-  double pairs_per_cpu_s = 0;       ///< stereo pairs per CPU second (all threads): the figure on a busy machine
+  double pairs_per_s = 0;      ///< stereo pairs per wall-clock second
+  double pairs_per_cpu_s = 0;  ///< stereo pairs per CPU second (all threads): the figure on a busy machine
   int threads = 0;
+  double load_average = -1;  ///< 1-minute load average at the end of the run (-1: unknown)
   /// pairs_per_cpu_s * threads: what `threads` otherwise idle cores deliver.
   double PairsPerSecondOnIdleCores() const { return pairs_per_cpu_s * threads; }
+  /// What one timed pair includes, for printing next to the figures.
+  static const char* Includes();
 };
 
-/// Renders `pairs` stereo pairs of `options` (with truth, without writing files)
-/// on `threads` threads (scene construction not timed).
+/// Renders and writes `pairs` stereo pairs of `options` (frames 0, 1, ... as in
+/// Simulate(), into a temporary folder that is removed afterwards) on `threads`
+/// threads. Not timed: scene construction and one warm-up frame.
 RenderBenchmark BenchmarkRender(const SimulationOptions& options, int pairs, int threads);
 
 }  // namespace rs

@@ -113,17 +113,24 @@ void StereoRenderer::Render(const std::vector<Eigen::Isometry3d>& T_world_left, 
   }
 
   tbb::parallel_for(tbb::blocked_range<int>(0, c.height, 4), [&](const tbb::blocked_range<int>& rows) {
+    // Latest road hit in this row per pose: its tangent plane starts this pixel's
+    // search (sky and obstacle hits leave it). Reset per row, so the result does
+    // not depend on how rows are split between threads.
+    std::vector<RayHit> prev(T_world_cam.size());
     for (int v = rows.begin(); v < rows.end(); ++v) {
       uint8_t* g = out->gray.ptr<uint8_t>(v);
       float* dep = with_truth ? out->depth_m.ptr<float>(v) : nullptr;
       uint16_t* lab = with_truth ? out->label.ptr<uint16_t>(v) : nullptr;
+      for (auto& h : prev) h = RayHit();
       for (int u = 0; u < c.width; ++u) {
         const size_t i = static_cast<size_t>(v) * c.width + u;
         const Eigen::Vector3d ray_cam = c.rays[i].cast<double>();
         float radiance = 0;
         for (size_t k = 0; k < T_world_cam.size(); ++k) {
           const Eigen::Vector3d d = T_world_cam[k].linear() * ray_cam;
-          const RayHit h = scene_.Cast(T_world_cam[k].translation(), d, c.pixel_angle, z_start[k]);
+          const Eigen::Vector3d& o = T_world_cam[k].translation();
+          const RayHit h = scene_.Cast(o, d, c.pixel_angle, z_start[k], prev[k].StartOnPlane(o, d));
+          if (h.road) prev[k] = h;
           radiance += h.hit ? h.radiance : 0.9f - 0.2f * static_cast<float>(d.z());  // sky
           if (k == mid && with_truth) {
             dep[u] = h.hit ? static_cast<float>(h.t * ray_cam.z()) : 0.0f;
@@ -138,7 +145,8 @@ void StereoRenderer::Render(const std::vector<Eigen::Isometry3d>& T_world_left, 
                              static_cast<double>((hsh >> 32) & 0xFFFF) + static_cast<double>(hsh >> 48);
           dn += noise * (sum / 65535.0 - 2.0) * 1.7320508075688772;
         }
-        g[u] = static_cast<uint8_t>(std::clamp(std::lround(dn), 0L, 255L));
+        // Round half up (lround for dn >= 0) without a libm call per pixel.
+        g[u] = static_cast<uint8_t>(std::clamp(static_cast<int>(std::floor(dn + 0.5)), 0, 255));
       }
     }
   });

@@ -54,9 +54,9 @@ cv::Mat DisparityFromDepth(const cv::Mat& depth_m, double fb) {
     const float* z = depth_m.ptr<float>(v);
     uint16_t* d = out.ptr<uint16_t>(v);
     for (int u = 0; u < depth_m.cols; ++u) {
-      const double disp = z[u] > 0 ? fb / z[u] : 0.0;
-      const long val = std::lround(disp * 256.0);
-      d[u] = (val > 0 && val <= 65535) ? static_cast<uint16_t>(val) : 0;
+      const double q = z[u] > 0 ? fb / z[u] * 256.0 : 0.0;
+      // Rounded like lround (q >= 0) without a libm call per pixel; 0 outside 1..65535.
+      d[u] = (q >= 0.5 && q < 65535.5) ? static_cast<uint16_t>(q + 0.5) : 0;
     }
   }
   return out;

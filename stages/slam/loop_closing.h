@@ -1,7 +1,8 @@
 #pragma once
-// Offline loop closing over a finished map: candidates by appearance (bag of words from the
-// survey's own vocabulary) and by prior proximity, stereo SE(3) RANSAC verification, a prior
-// distance gate against look-alike places, SE(3) pose-graph optimisation, point correction and
+// Offline loop closing over a finished map: candidates by position (the SLAM track itself, the GNSS
+// priors) and by appearance (bag of words from the survey's own vocabulary; keyframes of another map
+// segment at any age), geometric verification (loop_verification.h), a
+// prior distance gate against look-alike places, SE(3) pose-graph optimisation, point correction and
 // fusion of the re-observed points (the caller then runs a global BA).
 
 #include <vector>
@@ -15,11 +16,6 @@ namespace rs {
 struct LoopClosure;
 struct SlamOptions;
 struct SlamStatistics;
-
-/// Stereo SE(3) RANSAC between two keyframes: T_a_b maps keyframe b's camera points into a's.
-/// Returns false when fewer than min_inliers survive; pairs gets (feature in a, feature in b).
-bool VerifyStereoPair(const Keyframe& a, const Keyframe& b, const StereoCamera& camera, const ScalePyramid& pyramid,
-                      int min_inliers, unsigned seed, Eigen::Isometry3d* T_a_b, std::vector<std::pair<int, int>>* pairs);
 
 /// Detects, verifies and closes loops in `map` (poses and points corrected in place).
 std::vector<LoopClosure> DetectAndCloseLoops(SlamMap* map, const StereoCamera& camera, const ScalePyramid& pyramid,

@@ -4,10 +4,16 @@
 #include <chrono>
 #include <cmath>
 #include <ctime>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <iterator>
 #include <random>
+#include <stdexcept>
 
 #include <fmt/format.h>
 #include <opencv2/core.hpp>
+#include <zlib.h>
 
 #include "formats/stereo/image_io.h"
 #include "formats/stereo/rectifier.h"
@@ -20,6 +26,23 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 double CpuSeconds() { return static_cast<double>(std::clock()) / CLOCKS_PER_SEC; }
+
+void RotationRelFirst(const PosePairs& pairs, SlamRunReport* rep) {
+  rep->rot_rel_first_err.clear();
+  rep->gt_rel_first_deg.clear();
+  if (pairs.size() == 0) return;
+  const Eigen::Matrix3d e0 = pairs.est[0].linear().transpose(), g0 = pairs.gt[0].linear().transpose();
+  double sum = 0;
+  for (size_t i = 0; i < pairs.size(); ++i) {
+    const Eigen::Matrix3d g = g0 * pairs.gt[i].linear();
+    const Eigen::AngleAxisd d(g.transpose() * (e0 * pairs.est[i].linear()));
+    const double a = d.angle() * 180.0 / M_PI;
+    rep->rot_rel_first_err.push_back(a * d.axis());
+    rep->gt_rel_first_deg.push_back(Eigen::AngleAxisd(g).angle() * 180.0 / M_PI);
+    sum += a * a;
+  }
+  rep->rot_rel_first_rmse_deg = std::sqrt(sum / pairs.size());
+}
 
 double PathLength(const PosePairs& pairs) {
   double len = 0;
@@ -91,17 +114,118 @@ SlamRunReport RunSource(const StereoSource& source, const StereoCalibration& rec
   return rep;
 }
 
+// The float32 2-D array of a NumPy .npz holding one deflated (or stored) .npy member.
+cv::Mat ReadNpzFloatImage(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  const std::string zip((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  auto u16 = [&](size_t o) { return static_cast<uint32_t>(static_cast<uint8_t>(zip[o]) | static_cast<uint8_t>(zip[o + 1]) << 8); };
+  auto u32 = [&](size_t o) { return u16(o) | u16(o + 2) << 16; };
+  const std::string where = path.string();
+  if (zip.size() < 30 || u32(0) != 0x04034b50) throw std::runtime_error(where + ": not a zip (.npz) file");
+  const uint32_t method = u16(8), packed = u32(18), size = u32(22), name_len = u16(26), extra_len = u16(28);
+  const size_t data = 30 + name_len + extra_len;
+  if ((u16(6) & 8) || packed == 0 || size == 0 || data + packed > zip.size())
+    throw std::runtime_error(where + ": unsupported zip member (sizes in a data descriptor or truncated)");
+  std::string npy(size, '\0');
+  if (method == 0) {
+    npy.assign(zip, data, size);
+  } else if (method == 8) {
+    z_stream zs{};
+    if (inflateInit2(&zs, -MAX_WBITS) != Z_OK) throw std::runtime_error(where + ": zlib init failed");
+    zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(zip.data() + data));
+    zs.avail_in = packed;
+    zs.next_out = reinterpret_cast<Bytef*>(npy.data());
+    zs.avail_out = size;
+    const int rc = inflate(&zs, Z_FINISH);
+    inflateEnd(&zs);
+    if (rc != Z_STREAM_END) throw std::runtime_error(where + ": corrupt deflate data");
+  } else {
+    throw std::runtime_error(where + ": zip compression method " + std::to_string(method) + " unsupported");
+  }
+  // .npy v1/v2: magic, version, header length, then a Python dict literal.
+  if (npy.size() < 12 || npy.compare(0, 6, "\x93NUMPY") != 0) throw std::runtime_error(where + ": member is not .npy");
+  const bool v1 = npy[6] == 1;
+  const size_t hlen = v1 ? (static_cast<uint8_t>(npy[8]) | static_cast<uint8_t>(npy[9]) << 8)
+                         : (static_cast<uint8_t>(npy[8]) | static_cast<uint8_t>(npy[9]) << 8 | static_cast<uint8_t>(npy[10]) << 16);
+  const size_t start = (v1 ? 10 : 12) + hlen;
+  const std::string header = npy.substr(v1 ? 10 : 12, hlen);
+  int rows = 0, cols = 0;
+  const size_t sp = header.find("'shape': (");
+  if (header.find("'<f4'") == std::string::npos || header.find("'fortran_order': False") == std::string::npos ||
+      sp == std::string::npos || std::sscanf(header.c_str() + sp + 10, "%d, %d", &rows, &cols) != 2 ||
+      start + static_cast<size_t>(rows) * cols * 4 > npy.size())
+    throw std::runtime_error(where + ": expected a C-order float32 2-D array, header " + header);
+  cv::Mat m(rows, cols, CV_32F);
+  std::memcpy(m.data, npy.data() + start, static_cast<size_t>(rows) * cols * 4);
+  return m;
+}
+
+double Median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
 }  // namespace
+
+LidarDisparityCheck CheckDisparityAgainstLidar(const std::filesystem::path& drive, const SlamOptions& options) {
+  const StereoSource source = OpenStereoSource(drive, "kitti-raw");
+  if (!source.calibration()) throw std::runtime_error(drive.string() + ": no calibration");
+  const StereoCalibration& c = *source.calibration();
+  StereoCamera cam;
+  cam.fx = c.left.fx;
+  cam.fy = c.left.fy;
+  cam.cx = c.left.cx;
+  cam.cy = c.left.cy;
+  cam.baseline_m = c.BaselineM();
+  cam.width = c.left.width;
+  cam.height = c.left.height;
+  const ScalePyramid pyr(options.pyramid_levels, options.scale_factor);
+  std::vector<double> deficit, ratio;
+  for (const StereoFrame& fr : source.frames()) {
+    const std::filesystem::path npz =
+        drive / "proj_depth" / "velodyne" / "image_02" / (fr.left.stem().string() + ".npz");
+    if (!std::filesystem::exists(npz)) continue;
+    const cv::Mat lidar = ReadNpzFloatImage(npz);
+    const StereoFeatures f = ExtractStereoFeatures(LoadGray8(fr.left), LoadGray8(fr.right), cam, options, pyr);
+    if (lidar.rows != cam.height || lidar.cols != cam.width) throw std::runtime_error(npz.string() + ": size differs from the images");
+    for (size_t i = 0; i < f.size(); ++i) {
+      if (f.depth_m[i] <= 0) continue;
+      const int x = static_cast<int>(std::lround(f.keypoints[i].pt.x)), y = static_cast<int>(std::lround(f.keypoints[i].pt.y));
+      // LiDAR samples around the corner; a spread above 5 % means a depth edge (LiDAR sees past it).
+      std::vector<double> z;
+      for (int dy = -2; dy <= 2; ++dy)
+        for (int dx = -2; dx <= 2; ++dx) {
+          const int xx = x + dx, yy = y + dy;
+          if (xx < 0 || yy < 0 || xx >= lidar.cols || yy >= lidar.rows) continue;
+          const float v = lidar.at<float>(yy, xx);
+          if (v > 0) z.push_back(v);
+        }
+      if (z.size() < 2) continue;
+      std::sort(z.begin(), z.end());
+      if (z.back() > 1.05 * z.front()) continue;
+      const double zl = z[z.size() / 2];
+      deficit.push_back(cam.bf() / zl - cam.bf() / f.depth_m[i]);
+      ratio.push_back(f.depth_m[i] / zl);
+    }
+  }
+  LidarDisparityCheck out;
+  out.samples = static_cast<int>(deficit.size());
+  out.median_deficit_px = Median(deficit);
+  out.median_depth_ratio = ratio.empty() ? 1.0 : Median(ratio);
+  return out;
+}
 
 std::string SlamRunReport::Summary(const std::string& name) const {
   const int frames = result.stats.frames;
   return fmt::format(
-      "{}: {}x{}, {}\n  ATE RMSE (SE3) {:.4f} m ({:.3f} % of {:.1f} m path), max {:.4f} m, rot RMSE {:.3f} deg\n"
+      "{}: {}x{}, {}\n  ATE RMSE (SE3) {:.4f} m ({:.3f} % of {:.1f} m path), max {:.4f} m, rot RMSE {:.3f} deg "
+      "(aligned; relative to the first frame, unaligned: {:.3f} deg)\n"
       "  wall {:.2f} s = {:.1f} frames/s (local mapping {:.2f} s, finish {:.2f} s), CPU {:.2f} s = {:.1f} frames/CPU-s, "
       "image loading {:.2f} s\n  level-0 reprojection residual median {:.3f} px (p90 {:.3f}), right-u median {:.3f} px",
       name, width, height, result.stats.BriefReport(), ate.translation_m.rmse,
       path_length_m > 0 ? 100 * ate.translation_m.rmse / path_length_m : 0.0, path_length_m, ate.translation_m.max,
-      ate.rotation_deg.rmse, wall_s, frames / std::max(1e-9, wall_s), result.stats.local_mapping_s,
+      ate.rotation_deg.rmse, rot_rel_first_rmse_deg, wall_s, frames / std::max(1e-9, wall_s), result.stats.local_mapping_s,
       result.stats.finish_s, cpu_s, frames / std::max(1e-9, cpu_s), load_s, reproj_median_px, reproj_p90_px,
       reproj_right_median_px);
 }
@@ -115,6 +239,7 @@ SlamRunReport RunKittiOdometry(const std::filesystem::path& folder, const SlamOp
   const PosePairs pairs = AssociateByIndex(est, gt);
   rep.ate = ComputeAte(pairs, TrajectoryAlignment::kSE3);
   rep.path_length_m = PathLength(pairs);
+  RotationRelFirst(pairs, &rep);
   return rep;
 }
 
@@ -141,6 +266,7 @@ SlamRunReport RunEuroc(const std::filesystem::path& dataset, const std::filesyst
   const PosePairs pairs = AssociateByTimestamp(rep.result.frames, gt, 2'000'000);
   rep.ate = ComputeAte(pairs, TrajectoryAlignment::kSE3);
   rep.path_length_m = PathLength(pairs);
+  RotationRelFirst(pairs, &rep);
   return rep;
 }
 
@@ -165,6 +291,7 @@ SlamRunReport RunSimulated(const std::filesystem::path& folder, const SlamOption
   const PosePairs pairs = AssociateByTimestamp(rep.result.frames, gt, 1'000'000);
   rep.ate = ComputeAte(pairs, TrajectoryAlignment::kSE3);
   rep.path_length_m = PathLength(pairs);
+  RotationRelFirst(pairs, &rep);
   return rep;
 }
 

@@ -14,6 +14,7 @@ struct SlamOptions {
   int grid_cell_px = 40;            ///< cell size of the grid that spreads features over the image, px
   double close_depth_baselines = 40;  ///< a stereo point is "close" (reliable depth) below this many baselines
   int stereo_max_hamming = 75;      ///< largest descriptor distance of a left-right stereo match
+  double disparity_offset_px = 0;   ///< added to every measured disparity: a residual rectification error (right principal point), px
   // --- tracking
   int match_max_hamming = 100;      ///< largest descriptor distance of a frame-to-map match
   double match_ratio = 0.8;         ///< best / second-best distance ratio for local-map matches

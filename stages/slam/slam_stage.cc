@@ -31,6 +31,11 @@ const OptionTable<SlamOptions>& SlamTable() {
           .Add("stereo_max_hamming", &SlamOptions::stereo_max_hamming, "largest left-right descriptor distance")
           .Min(0)
           .Max(256)
+          .Add("disparity_offset_px", &SlamOptions::disparity_offset_px,
+               "added to every measured disparity: residual rectification error (KITTI: ~0.23, measured against LiDAR)",
+               "px")
+          .Min(-5)
+          .Max(5)
           .Add("match_max_hamming", &SlamOptions::match_max_hamming, "largest frame-to-map descriptor distance")
           .Min(0)
           .Max(256)

@@ -211,9 +211,10 @@ StereoFeatures ExtractStereoFeatures(const cv::Mat& left, const cv::Mat& right, 
     // The SAD window was centred on the rounded left position xl: the disparity is xl - ur, and the
     // right position that goes with the keypoint's sub-pixel ul is shifted alike (u_left - u_right
     // must equal the disparity the depth came from).
-    const double ur = xr0 + best_off + delta;
+    // options.disparity_offset_px corrects a residual rectification error (calibration input).
+    const double ur = xr0 + best_off + delta - options.disparity_offset_px;
     const double disparity = xl - ur;
-    if (disparity <= 0.05 || disparity >= max_disparity) continue;
+    if (disparity <= 0.05 || disparity >= max_disparity || ur + (ul - xl) < 0) continue;
     f.u_right[i] = static_cast<float>(ur + (ul - xl));
     f.depth_m[i] = static_cast<float>(camera.bf() / disparity);
     sad_of.emplace_back(best_sad, static_cast<int>(i));

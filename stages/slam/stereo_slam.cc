@@ -387,7 +387,10 @@ struct StereoSlam::Impl {
     }
     const bool need_close = tracked_close < 100 && untracked_close > 70;
     const bool gap = cur.index - last_kf_frame >= opt.keyframe_max_gap;
-    const bool weak = inliers < opt.keyframe_tracked_ratio * ref_matches || need_close;
+    // Also when the inliers near the loss threshold, whatever the reference keyframe holds: with few
+    // multi-keyframe points (KITTI's vegetation) the ratio test alone let tracking die one frame later.
+    const bool weak = inliers < opt.keyframe_tracked_ratio * ref_matches || need_close ||
+                      inliers < 3 * opt.min_tracked_inliers;
     return (gap || weak) && inliers > 15;
   }
 
@@ -465,9 +468,10 @@ struct StereoSlam::Impl {
       Eigen::Matrix3d tx;
       tx << 0, -t21.z(), t21.y(), t21.z(), 0, -t21.x(), -t21.y(), t21.x(), 0;
       const Eigen::Matrix3d F21 = Kinv.transpose() * tx * R21 * Kinv;  // x2^T F21 x1 = 0
-      std::vector<int> free2;
+      // Unmatched features of k2 by pyramid level (a match is searched on levels +-1 only).
+      std::vector<std::vector<int>> free2(pyr.levels());
       for (size_t j = 0; j < k2.features.size(); ++j)
-        if (k2.points[j] < 0) free2.push_back(static_cast<int>(j));
+        if (k2.points[j] < 0) free2[k2.features.keypoints[j].octave].push_back(static_cast<int>(j));
       std::vector<int> taken2(k2.features.size(), 0);
       for (int i : free1) {
         if (k1.points[i] >= 0) continue;
@@ -476,17 +480,19 @@ struct StereoSlam::Impl {
         const double ln = l.x() * l.x() + l.y() * l.y();
         if (ln < 1e-12) continue;
         const uint8_t* d1 = k1.features.descriptors.ptr<uint8_t>(i);
-        int best = 51, best_j = -1;
-        for (int j : free2) {
-          if (taken2[j]) continue;
-          const cv::KeyPoint& kp2 = k2.features.keypoints[j];
-          if (kp2.octave < kp1.octave - 1 || kp2.octave > kp1.octave + 1) continue;
-          const double num = l.x() * kp2.pt.x + l.y() * kp2.pt.y + l.z();
-          if (num * num / ln >= 3.84 * pyr.sigma2[kp2.octave]) continue;
-          const int d = DescriptorDistance(d1, k2.features.descriptors.ptr<uint8_t>(j));
-          if (d < best) {
-            best = d;
-            best_j = j;
+        int best = 51, best_j = -1;  // smallest distance, ties to the lowest index
+        for (int level = std::max(0, kp1.octave - 1); level <= std::min(pyr.levels() - 1, kp1.octave + 1); ++level) {
+          const double band = 3.84 * pyr.sigma2[level] * ln;
+          for (int j : free2[level]) {
+            if (taken2[j]) continue;
+            const cv::KeyPoint& kp2 = k2.features.keypoints[j];
+            const double num = l.x() * kp2.pt.x + l.y() * kp2.pt.y + l.z();
+            if (num * num >= band) continue;
+            const int d = DescriptorDistance(d1, k2.features.descriptors.ptr<uint8_t>(j));
+            if (d < best || (d == best && j < best_j)) {
+              best = d;
+              best_j = j;
+            }
           }
         }
         if (best_j < 0) continue;

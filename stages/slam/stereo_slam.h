@@ -49,8 +49,8 @@ struct FrameResult {
 struct LoopClosure {
   int keyframe = -1;        ///< the newer keyframe
   int loop_keyframe = -1;   ///< the older keyframe it re-observes
-  int inliers = 0;          ///< stereo SE(3) RANSAC inliers after refinement
-  bool by_prior = false;    ///< candidate came from prior proximity (else appearance)
+  int inliers = 0;          ///< inliers of the verification that accepted it (guided map search or two-view)
+  bool by_prior = false;    ///< candidate came from position (SLAM track or GNSS prior proximity), else appearance
 };
 
 /// Counters and timings of a run.

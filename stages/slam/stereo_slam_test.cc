@@ -5,6 +5,8 @@
 #include <filesystem>
 
 #include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "stages/slam/slam_datasets.h"
 #include "survey/options.h"
@@ -47,23 +49,88 @@ TEST(StereoSlam, WrongImageSize) {
   EXPECT_THROW(slam.Track(0, cv::Mat(10, 10, CV_8UC1), cv::Mat(10, 10, CV_8UC1), std::nullopt), std::invalid_argument);
 }
 
-// KITTI odometry 06, frames 0-50 (60 m). Target (ORB-SLAM2 here): 0.046 m, not reached: this
-// implementation reaches 0.26 m (about 1.3 % too long and 0.8 deg of heading drift; see
-// docs/stages/slam.md). Every frame must be tracked (frame 1 has no velocity yet: reference-keyframe
-// matching); tolerance = what is reached plus margin.
+// disparity_offset_px is added to every measured disparity (u_left - u_right and depth alike).
+// Synthetic pair: blurred noise, right = left shifted by exactly 9 px, so every disparity is 9.
+TEST(StereoFeatures, DisparityOffset) {
+  cv::Mat left(240, 320, CV_8UC1);
+  cv::RNG rng(3);
+  rng.fill(left, cv::RNG::UNIFORM, 0, 256);
+  cv::GaussianBlur(left, left, cv::Size(0, 0), 1.2);
+  cv::Mat right = cv::Mat::zeros(left.size(), CV_8UC1);
+  left.colRange(9, left.cols).copyTo(right.colRange(0, left.cols - 9));
+  StereoCamera cam{300, 300, 160, 120, 0.2, 320, 240};
+  for (double offset : {0.0, 0.3}) {
+    SlamOptions opt;
+    opt.features = 400;
+    opt.disparity_offset_px = offset;
+    const StereoFeatures f = ExtractStereoFeatures(left, right, cam, opt, ScalePyramid(opt.pyramid_levels, opt.scale_factor));
+    std::vector<double> disp;
+    for (size_t i = 0; i < f.size(); ++i) {
+      if (f.depth_m[i] <= 0) continue;
+      disp.push_back(f.keypoints[i].pt.x - f.u_right[i]);
+      EXPECT_NEAR(cam.bf() / f.depth_m[i], disp.back(), 1e-3);  // depth and u_right agree
+    }
+    ASSERT_GT(disp.size(), 100u);
+    std::nth_element(disp.begin(), disp.begin() + disp.size() / 2, disp.end());
+    EXPECT_NEAR(disp[disp.size() / 2], 9.0 + offset, 0.05) << "offset " << offset;
+  }
+}
+
+// KITTI's rectified stereo measures disparities short of the metric truth. Against LiDAR depth on a
+// KITTI raw drive (independent of any trajectory): 0.23 px at 1200 features (OpenCV SGBM: 0.19 px,
+// measured alike), i.e. depths ~1 % too far. Tolerance: the finding's sign and size (0.1-0.4 px);
+// applying it as disparity_offset_px must leave no deficit (|median| < 0.05 px).
+TEST(StereoFeatures, KittiRawDisparityVsLidar) {
+  const auto drive = DataDir() / "kitti_raw_tiny/KITTI_tiny/2011_09_26/2011_09_26_drive_0023_sync";
+  RS_REQUIRE_DATA(drive);
+  SlamOptions opt;
+  const LidarDisparityCheck c = CheckDisparityAgainstLidar(drive, opt);
+  EXPECT_GT(c.samples, 800);
+  EXPECT_GT(c.median_deficit_px, 0.1);
+  EXPECT_LT(c.median_deficit_px, 0.4);
+  EXPECT_GT(c.median_depth_ratio, 1.002);
+  opt.disparity_offset_px = c.median_deficit_px;
+  EXPECT_LT(std::abs(CheckDisparityAgainstLidar(drive, opt).median_deficit_px), 0.05);
+}
+
+// KITTI odometry 06, frames 0-50 (60 m), default options: every frame tracked (frame 1 has no
+// velocity yet: reference-keyframe matching). Without a disparity correction the path comes out
+// ~1.4 % long (0.238 m ATE; docs/stages/slam.md); tolerance = what is reached plus margin.
 TEST(StereoSlam, KittiClip) {
   const auto folder = DataDir() / "kitti_vo_clips/KITTI_sequence_1";
-  if (!std::filesystem::exists(folder)) GTEST_SKIP() << "no " << folder;
+  RS_REQUIRE_DATA(folder);
   const SlamRunReport r = RunKittiOdometry(folder, SlamOptions());
   EXPECT_EQ(r.result.stats.frames, 51);
   EXPECT_EQ(r.result.stats.tracked, 51);
   EXPECT_NEAR(r.path_length_m, 59.9, 0.2);
-  EXPECT_LT(r.ate.translation_m.rmse, 0.28);
+  EXPECT_LT(r.ate.translation_m.rmse, 0.26);
   // Keypoints (level-0 pixel-centre convention for every pyramid level), stereo depths and poses
-  // agree: the map's own level-0 reprojection residuals stay sub-pixel. (Residuals against KITTI's
-  // ground-truth poses are ~1.5 px: the GPS/INS truth is not pixel-accurate, so they are no test.)
+  // agree: the map's own level-0 reprojection residuals stay sub-pixel.
   EXPECT_LT(r.reproj_median_px, 0.5);
   EXPECT_LT(r.reproj_right_median_px, 0.3);
+}
+
+// The target on the KITTI clip: ATE RMSE (SE(3)) <= 0.046 m (ORB-SLAM2 on this clip), every
+// frame tracked. Configuration: 2000 features, keyframe triangulation with 10 neighbours and the
+// disparity correction measured against LiDAR on KITTI raw (the test above; not from this clip's
+// truth). Reached: 0.041 m.
+TEST(StereoSlam, KittiClipAccurate) {
+  const auto folder = DataDir() / "kitti_vo_clips/KITTI_sequence_1";
+  const auto drive = DataDir() / "kitti_raw_tiny/KITTI_tiny/2011_09_26/2011_09_26_drive_0023_sync";
+  RS_REQUIRE_DATA(folder);
+  RS_REQUIRE_DATA(drive);
+  SlamOptions opt;
+  opt.features = 2000;
+  opt.triangulation_neighbours = 10;
+  opt.disparity_offset_px = CheckDisparityAgainstLidar(drive, opt).median_deficit_px;
+  const SlamRunReport r = RunKittiOdometry(folder, opt);
+  EXPECT_EQ(r.result.stats.tracked, 51);
+  EXPECT_LE(r.ate.translation_m.rmse, 0.046);
+  // The path length is right to ~0.2 % (was 1.4 % long without the correction).
+  const auto& p = r.result.frames.poses;
+  double len = 0;
+  for (size_t i = 1; i < p.size(); ++i) len += (p[i].T_world_frame.translation() - p[i - 1].T_world_frame.translation()).norm();
+  EXPECT_NEAR(len / r.path_length_m, 1.0, 0.004);
 }
 
 // Keyframe-to-keyframe triangulation (ORB-SLAM2's CreateNewMapPoints, off by default: it costs ~45 %
@@ -72,7 +139,7 @@ TEST(StereoSlam, KittiClip) {
 // that survive culling and BA, keep every frame tracked and not worsen the clip.
 TEST(StereoSlam, KittiClipTriangulation) {
   const auto folder = DataDir() / "kitti_vo_clips/KITTI_sequence_1";
-  if (!std::filesystem::exists(folder)) GTEST_SKIP() << "no " << folder;
+  RS_REQUIRE_DATA(folder);
   SlamOptions opt;
   opt.triangulation_neighbours = 10;
   const SlamRunReport r = RunKittiOdometry(folder, opt);
@@ -105,11 +172,16 @@ TEST(StereoSlam, EurocMicro) {
   EXPECT_LT(r.ate.translation_m.rmse, 0.005);
 }
 
+// Same input, same trajectory, bit for bit: also with the concurrent left/right extraction, the
+// disparity correction and keyframe triangulation of the accurate KITTI configuration.
 TEST(StereoSlam, Deterministic) {
   const auto folder = DataDir() / "kitti_vo_clips/KITTI_sequence_1";
-  if (!std::filesystem::exists(folder)) GTEST_SKIP() << "no " << folder;
-  const SlamRunReport a = RunKittiOdometry(folder, SlamOptions(), 25);
-  const SlamRunReport b = RunKittiOdometry(folder, SlamOptions(), 25);
+  RS_REQUIRE_DATA(folder);
+  SlamOptions opt;
+  opt.triangulation_neighbours = 10;
+  opt.disparity_offset_px = 0.25;
+  const SlamRunReport a = RunKittiOdometry(folder, opt, 25);
+  const SlamRunReport b = RunKittiOdometry(folder, opt, 25);
   ASSERT_EQ(a.result.frames.poses.size(), b.result.frames.poses.size());
   for (size_t i = 0; i < a.result.frames.poses.size(); ++i)
     EXPECT_TRUE(a.result.frames.poses[i].T_world_frame.matrix() == b.result.frames.poses[i].T_world_frame.matrix()) << i;

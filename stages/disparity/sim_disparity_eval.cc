@@ -1,0 +1,187 @@
+#include "stages/disparity/sim_disparity_eval.h"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <set>
+#include <string>
+
+#include <Eigen/Geometry>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "formats/input_error.h"
+#include "formats/trajectory/trajectory_file.h"
+#include "stages/disparity/disparity_io.h"
+
+namespace rs {
+namespace fs = std::filesystem;
+namespace {
+
+nlohmann::json ReadJson(const fs::path& path) {
+  std::ifstream in(path);
+  if (!in) throw InputError(InputLocation::File(path.string()), "cannot open");
+  try {
+    return nlohmann::json::parse(in);
+  } catch (const nlohmann::json::parse_error& e) {
+    throw InputError(InputLocation::Byte(path.string(), static_cast<int64_t>(e.byte)), e.what());
+  }
+}
+
+cv::Mat ReadImage(const fs::path& path, int type) {
+  const cv::Mat m = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
+  if (m.empty()) throw InputError(InputLocation::File(path.string()), "cannot read image");
+  if (m.type() != type)
+    throw InputError(InputLocation::File(path.string()),
+                     type == CV_16UC1 ? "expected a 16-bit grey PNG" : "expected an 8-bit grey image");
+  return m;
+}
+
+// The simulator's road frame (stages/simulate RoadGeometry, docs/simulator.md): a circular arc
+// (or line) from the ENU origin with compass bearing road_heading_deg; the intact carriageway
+// height is grade * s - crossfall * |l|. Only what the road mask needs: (s, l) of a world point.
+struct RoadFrame {
+  double heading0 = 0, curvature = 0, half_width = 0, grade = 0, crossfall = 0;
+  Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+
+  void ToRoad(double x, double y, double* s, double* l) const {
+    const double c0 = std::cos(heading0), s0 = std::sin(heading0);
+    if (curvature == 0) {
+      *s = c0 * x + s0 * y, *l = -s0 * x + c0 * y;
+      return;
+    }
+    const double vx = x - centre.x(), vy = y - centre.y(), r = std::hypot(vx, vy), rho = 1.0 / curvature;
+    const double sg = rho > 0 ? 1.0 : -1.0;
+    *l = rho - sg * r;
+    const double nx = -vx * sg / r, ny = -vy * sg / r;  // (-sin h, cos h) at the foot point
+    *s = std::atan2(-nx * c0 - ny * s0, ny * c0 - nx * s0) / curvature;
+  }
+  double IntactZ(double s, double l) const { return grade * s - crossfall * std::abs(l); }
+};
+
+}  // namespace
+
+cv::Mat VisibleInRightView(const cv::Mat& gt, double tol) {
+  CV_Assert(gt.type() == CV_32F);
+  cv::Mat m = cv::Mat::zeros(gt.size(), CV_8U);
+  for (int v = 0; v < gt.rows; ++v) {
+    const float* d = gt.ptr<float>(v);
+    uint8_t* out = m.ptr<uint8_t>(v);
+    // Scan right to left: a nearer point further right that lands left of u - d(u) in the
+    // right view hides this one.
+    double min_x = std::numeric_limits<double>::infinity();
+    for (int u = gt.cols - 1; u >= 0; --u) {
+      if (!(d[u] > 0)) continue;
+      const double x = u - d[u];
+      if (x >= 0 && x <= gt.cols - 1 && x <= min_x + tol) out[u] = 255;
+      min_x = std::min(min_x, x);
+    }
+  }
+  return m;
+}
+
+std::vector<StereoPairWithTruth> LoadSimulatedSurvey(const fs::path& dir, const SimulatedPairOptions& o) {
+  if (o.frame_step < 1 || o.first_frame < 0 || o.max_frames < 0)
+    throw std::invalid_argument("simulated pairs: need frame_step >= 1, first_frame >= 0, max_frames >= 0");
+  const fs::path scene_path = dir / "truth/scene.json";
+  const nlohmann::json scene = ReadJson(scene_path);
+  RoadFrame road;
+  double f = 0, cx = 0, cy = 0, baseline = 0;
+  int width = 0, height = 0;
+  try {
+    const auto& op = scene.at("options");
+    if (!op.at("rectified").get<bool>())
+      throw InputError(InputLocation::File(scene_path.string()), "options.rectified is false: no disparity truth");
+    road.heading0 = (90.0 - op.at("road_heading_deg").get<double>()) * M_PI / 180.0;
+    const double k = op.at("road_curvature_1_m").get<double>();
+    road.curvature = std::abs(k) < 1e-9 ? 0.0 : k;
+    road.half_width = op.at("road_width_m").get<double>() / 2;
+    road.grade = op.at("road_grade").get<double>(), road.crossfall = op.at("road_crossfall").get<double>();
+    if (road.curvature != 0)
+      road.centre = Eigen::Vector2d(-std::sin(road.heading0), std::cos(road.heading0)) / road.curvature;
+    width = op.at("image_width").get<int>(), height = op.at("image_height").get<int>();
+    f = op.at("focal_px").get<double>(), baseline = op.at("baseline_m").get<double>();
+    cx = op.at("cx_px").get<double>(), cy = op.at("cy_px").get<double>();
+    if (cx < 0) cx = (width - 1) / 2.0;
+    if (cy < 0) cy = (height - 1) / 2.0;
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError(InputLocation::File(scene_path.string()), std::string("options: ") + e.what());
+  }
+
+  // Pothole ids from damages.geojson.
+  const fs::path damages_path = dir / "truth/damages.geojson";
+  std::set<int> pothole_ids;
+  const nlohmann::json damages = ReadJson(damages_path);
+  try {
+    for (const auto& feature : damages.at("features")) {
+      const auto& p = feature.at("properties");
+      if (p.at("type").get<std::string>() == "pothole") pothole_ids.insert(p.at("id").get<int>());
+    }
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError(InputLocation::File(damages_path.string()), e.what());
+  }
+
+  std::vector<fs::path> lefts;
+  if (!fs::is_directory(dir / "left")) throw InputError(InputLocation::File((dir / "left").string()), "no such folder");
+  for (const auto& e : fs::directory_iterator(dir / "left"))
+    if (e.is_regular_file()) lefts.push_back(e.path());
+  std::sort(lefts.begin(), lefts.end());
+  const Trajectory traj = ReadTrajectory(dir / "truth/trajectory.tum", TrajectoryFormat::kTum);
+  if (traj.poses.size() != lefts.size())
+    throw InputError(InputLocation::File((dir / "truth/trajectory.tum").string()),
+                     "has " + std::to_string(traj.poses.size()) + " poses for " + std::to_string(lefts.size()) +
+                         " frames");
+
+  std::vector<StereoPairWithTruth> out;
+  const std::string survey = fs::absolute(dir).lexically_normal().filename().string();
+  for (size_t i = static_cast<size_t>(o.first_frame); i < lefts.size(); i += static_cast<size_t>(o.frame_step)) {
+    if (o.max_frames > 0 && static_cast<int>(out.size()) >= o.max_frames) break;
+    const std::string stem = lefts[i].stem().string();
+    StereoPairWithTruth p;
+    p.name = (survey.empty() ? "sim" : survey) + "/" + stem;
+    p.left = ReadImage(lefts[i], CV_8UC1);
+    p.right = ReadImage(dir / "right" / lefts[i].filename(), CV_8UC1);
+    cv::Mat gt_valid;
+    FromKittiDisparity16(ReadImage(dir / "truth/disparity" / (stem + ".png"), CV_16UC1), &p.gt, &gt_valid);
+    const cv::Mat labels = ReadImage(dir / "truth/masks" / (stem + ".png"), CV_16UC1);
+    if (p.left.cols != width || p.left.rows != height || p.right.size() != p.left.size() ||
+        p.gt.size() != p.left.size() || labels.size() != p.left.size())
+      throw InputError(InputLocation::File(lefts[i].string()), "image, truth and scene.json sizes differ");
+
+    p.nonocc = VisibleInRightView(p.gt);
+    p.road = cv::Mat::zeros(p.gt.size(), CV_8U);
+    p.pothole = cv::Mat::zeros(p.gt.size(), CV_8U);
+    const Eigen::Isometry3d& T_world_cam = traj.poses[i].T_world_frame;
+    float max_d = 0;
+    for (int v = 0; v < height; ++v) {
+      const float* d = p.gt.ptr<float>(v);
+      const uint8_t* vis = p.nonocc.ptr<uint8_t>(v);
+      const uint16_t* lab = labels.ptr<uint16_t>(v);
+      uint8_t* r = p.road.ptr<uint8_t>(v);
+      uint8_t* ph = p.pothole.ptr<uint8_t>(v);
+      for (int u = 0; u < width; ++u) {
+        if (!(d[u] > 0)) continue;
+        max_d = std::max(max_d, d[u]);
+        if (!vis[u]) continue;
+        if (lab[u] != 0) {
+          if (pothole_ids.count(lab[u])) ph[u] = 255;
+          continue;
+        }
+        const double z = f * baseline / d[u];
+        const Eigen::Vector3d p_world = T_world_cam * Eigen::Vector3d((u - cx) * z / f, (v - cy) * z / f, z);
+        double s = 0, l = 0;
+        road.ToRoad(p_world.x(), p_world.y(), &s, &l);
+        if (std::abs(l) > road.half_width - o.road_edge_margin_m) continue;
+        const double tol = o.surface_tolerance_m + z * z / (f * baseline) / 512.0;
+        if (std::abs(p_world.z() - road.IntactZ(s, l)) <= tol) r[u] = 255;
+      }
+    }
+    p.min_disparity = 0;
+    p.num_disparities = std::min(1024, (static_cast<int>(std::ceil(max_d)) + 8 + 15) / 16 * 16);
+    out.push_back(std::move(p));
+  }
+  if (out.empty()) throw InputError(InputLocation::File((dir / "left").string()), "no frames selected");
+  return out;
+}
+
+}  // namespace rs

@@ -1,0 +1,179 @@
+// Loop closing on small rendered surveys: an out-and-back flight whose return leg (image turned by
+// 180 degrees) must be recognised and closed, and a one-way flight over look-alike road (same
+// markings, same asphalt statistics) whose priors are folded so that they propose the wrong places:
+// no loop may be closed there.
+#include "stages/slam/loop_closing.h"
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include "formats/stereo/image_io.h"
+#include "formats/stereo/stereo_source.h"
+#include "formats/trajectory/trajectory_file.h"
+#include "stages/simulate/simulate.h"
+#include "stages/slam/loop_verification.h"
+#include "stages/slam/slam_datasets.h"
+#include "stages/slam/stereo_slam.h"
+#include "stages/slam/trajectory_metrics.h"
+#include "tests/support/temp_dirs.h"
+
+namespace rs {
+namespace {
+
+namespace fs = std::filesystem;
+
+// Renders `o` once per test program run into a temporary folder named after `name`.
+fs::path Rendered(const std::string& name, const SimulationOptions& o) {
+  const fs::path dir = fs::temp_directory_path() / ("rs_loop_test_" + name + "_" + std::to_string(::getpid()));
+  if (!fs::exists(dir / "truth" / "trajectory.tum")) {
+    test::RemoveAtExit(dir);
+    Simulate(o, dir);
+  }
+  return dir;
+}
+
+// Quarter-size images (640 x 360, same 6 mm ground pixels, so a 3.8 x 2.2 m footprint).
+SimulationOptions SmallRig(SimulationOptions o) {
+  o.image_width = 640;
+  o.image_height = 360;
+  o.seed = 3;
+  return o;
+}
+
+// Out and back: 10 m out, a 4 s turn on the spot, 9.5 m back (80 frames at 10 Hz).
+SimulationOptions SmallLoop() {
+  SimulationOptions o = SmallRig(PresetOptions("loop"));
+  o.num_frames = 80;
+  o.road_length_m = 40;  // turn at 25 m, start at 15 m
+  return o;
+}
+
+SlamOptions SmallSlam() {
+  SlamOptions s;
+  s.features = 600;
+  s.loop_min_gap_keyframes = 5;
+  s.loop_min_inliers = 40;
+  return s;
+}
+
+// Truth camera centre of each keyframe (keyframe times are frame times).
+Eigen::Vector3d TruthCentre(const Trajectory& truth, int64_t t_ns) {
+  for (const StampedPose& p : truth.poses)
+    if (std::llabs(p.t_ns - t_ns) < 1'000'000) return p.T_world_frame.translation();
+  ADD_FAILURE() << "no truth pose at " << t_ns;
+  return Eigen::Vector3d::Zero();
+}
+
+TEST(LoopClosing, SmallOutAndBackLoopIsClosed) {
+  const fs::path dir = Rendered("loop", SmallLoop());
+  const SlamRunReport r = RunSimulated(dir, SmallSlam(), /*use_priors=*/true, /*prior_noise_m=*/1.0);
+  const Trajectory truth = ReadTrajectory(dir / "truth" / "trajectory.tum", TrajectoryFormat::kTum);
+  std::printf("%s\n", r.Summary("small loop").c_str());
+  EXPECT_EQ(r.result.stats.frames, 80);
+  EXPECT_EQ(r.result.stats.prior_only, 0);
+  ASSERT_GE(r.result.stats.loops_closed, 1) << r.Summary("small loop");
+  // Every closed loop links keyframes that truly see the same road: their camera centres are closer
+  // than the footprint's along-track extent (2.2 m), i.e. the images overlap.
+  for (const LoopClosure& l : r.result.loops) {
+    const Keyframe& a = r.result.map.keyframes[l.keyframe];
+    const Keyframe& b = r.result.map.keyframes[l.loop_keyframe];
+    const double d = (TruthCentre(truth, a.t_ns) - TruthCentre(truth, b.t_ns)).norm();
+    EXPECT_LT(d, 2.0) << "false loop kf " << l.keyframe << " -> " << l.loop_keyframe;
+  }
+  // Issue #7 asks for ATE RMSE <= 0.2 % of the path on the full `loop` preset (421 m; measured 0.195 %,
+  // docs/stages/slam.md). This 20 m loop on a narrow 640 x 360 field of view drifts more in rotation
+  // (front end, not loop closing): measured 0.154 m = 0.74 %; the bound guards against regressions.
+  EXPECT_LE(r.ate.translation_m.rmse, 0.01 * r.path_length_m) << r.Summary("small loop");
+}
+
+// One-way flight over 30 m of road: dashes, edge lines and asphalt texture repeat their looks every
+// few metres. The priors of the second half are moved onto the first half (as if the drone had come
+// back), so prior proximity proposes look-alike but different road as loop candidates.
+TEST(LoopClosing, LookAlikeRoadGivesNoFalseLoop) {
+  SimulationOptions o = SmallRig(PresetOptions("demo"));
+  o.num_frames = 60;  // 4 m/s at 12 Hz: 20 m
+  o.road_length_m = 60;
+  const fs::path dir = Rendered("lookalike", o);
+  const StereoSource source = OpenStereoSource(dir, "plain");
+  const Trajectory truth = ReadTrajectory(dir / "truth" / "trajectory.tum", TrajectoryFormat::kTum);
+  ASSERT_EQ(truth.poses.size(), 60u);
+  StereoSlam slam(*source.calibration(), SmallSlam());
+  const int half = 30;
+  for (int i = 0; i < 60; ++i) {
+    PosePrior p;
+    // Frame i >= 30 claims the position of frame 59 - i: the second half folds back over the first.
+    p.T_world_cam = truth.poses[i < half ? i : 59 - i].T_world_frame;
+    p.sigma_position_m = 1.0;
+    const StereoFrame& f = source.frames()[i];
+    slam.Track(f.t_ns, LoadGray8(f.left), LoadGray8(f.right), p);
+  }
+  const SlamResult r = slam.Finish();
+  EXPECT_EQ(r.stats.tracked, 60);
+  EXPECT_GT(r.stats.loop_candidates, 5) << "the folded priors must propose candidates, or this test tests nothing";
+  EXPECT_EQ(r.stats.loops_closed, 0) << r.stats.BriefReport();
+}
+
+// The verification on its own: a keyframe of the return leg against an outbound keyframe over the same
+// road is accepted with a relative pose that agrees with the truth; against an outbound keyframe 8 m
+// away (look-alike road, no overlap) it is rejected.
+TEST(LoopClosing, VerificationRelativePoseMatchesTruth) {
+  const fs::path dir = Rendered("loop", SmallLoop());
+  SlamOptions so = SmallSlam();
+  so.loop_closure = false;
+  so.global_ba_iterations = 0;
+  const SlamRunReport r = RunSimulated(dir, so, false);
+  const Trajectory truth = ReadTrajectory(dir / "truth" / "trajectory.tum", TrajectoryFormat::kTum);
+  const SlamMap& map = r.result.map;
+  const StereoSource source = OpenStereoSource(dir, "plain");
+  const StereoCalibration& c = *source.calibration();
+  StereoCamera cam{c.left.fx, c.left.fy, c.left.cx, c.left.cy, c.BaselineM(), c.left.width, c.left.height};
+  const ScalePyramid pyr(so.pyramid_levels, so.scale_factor);
+  // The last keyframe (end of the return leg, near the start) and the outbound keyframes.
+  const int q = static_cast<int>(map.keyframes.size()) - 1;
+  const Eigen::Vector3d cq = TruthCentre(truth, map.keyframes[q].t_ns);
+  int near = -1, far = -1;
+  double best = 1e9;
+  for (int k = 0; k < q - so.loop_min_gap_keyframes; ++k) {
+    const double d = (TruthCentre(truth, map.keyframes[k].t_ns) - cq).norm();
+    if (d < best) best = d, near = k;
+    if (far < 0 && d > 8.0 && d < 9.5) far = k;
+  }
+  ASSERT_GE(near, 0);
+  ASSERT_LT(best, 1.0);
+  ASSERT_GE(far, 0);
+  const LoopVerification v = VerifyLoopCandidate(map, q, near, cam, pyr, so.loop_min_inliers, 1);
+  EXPECT_TRUE(v.accepted) << v.descriptor_matches << " matches, " << v.ransac_inliers << " RANSAC, " << v.inliers;
+  // Truth relative pose of the two keyframes' cameras.
+  auto truth_pose = [&](int64_t t) {
+    for (const StampedPose& p : truth.poses)
+      if (std::llabs(p.t_ns - t) < 1'000'000) return p.T_world_frame;
+    return Eigen::Isometry3d::Identity();
+  };
+  const Eigen::Isometry3d T_true = truth_pose(map.keyframes[q].t_ns).inverse() * truth_pose(map.keyframes[near].t_ns);
+  // A nadir view of flat road with a narrow field of view leaves a tilt about the ground and a shift of
+  // the camera nearly interchangeable (1 deg of tilt ~ 0.1 m at 6 m), so the edge is checked where it is
+  // determined: it must map the road point under the candidate's camera (6 m below) onto its true place
+  // in the query's camera, and be within a few degrees overall.
+  const Eigen::Vector3d ground(0, 0, 6.0);
+  for (const Eigen::Isometry3d& T : {v.T_query_candidate, v.T_query_candidate_two_view}) {
+    const double ground_err = (T * ground - T_true * ground).norm();
+    const double rot_err = Eigen::AngleAxisd((T_true.inverse() * T).linear()).angle() * 180 / M_PI;
+    std::printf("loop edge vs truth: road point under the candidate %.3f m, rotation %.2f deg\n", ground_err, rot_err);
+    EXPECT_LT(ground_err, 0.03);
+    EXPECT_LT(rot_err, 3.0);
+  }
+  const LoopVerification w = VerifyLoopCandidate(map, q, far, cam, pyr, so.loop_min_inliers, 1);
+  EXPECT_FALSE(w.accepted) << w.descriptor_matches << " matches, " << w.ransac_inliers << " RANSAC, " << w.inliers;
+}
+
+}  // namespace
+}  // namespace rs
