@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
+#include <tbb/task_arena.h>
 
 namespace rs {
 namespace {
@@ -80,14 +81,15 @@ TEST(Sgm, MatchesReference631x479WithRowOffset) {
   ExpectIdentical(ComputeSgm(l, r, p), ComputeSgmReference(l, r, p));
 }
 
-// 4 paths over several column blocks (256 wide): the fused upward pass + winner-takes-all and the
-// right-view winners merged across block borders must still match the reference.
+// 4 paths over several column blocks (two per thread, at least Dp wide): the fused upward pass +
+// winner-takes-all and the right-view winners merged across block borders must still match the
+// reference.
 TEST(Sgm, MatchesReferenceFourPathsAcrossColumnBlocks) {
   struct Case {
     int W, H, min_d, num_d, lr;
     bool offsets;
   };
-  // Block width 256 (320 for D = 300), narrow last blocks, ranges of 1..10 vectors.
+  // Narrow last blocks (a 320-wide block for D = 300), ranges of 1..10 vectors.
   const Case cases[] = {{700, 37, -2, 40, 1, true},
                         {531, 21, 3, 33, 0, false},
                         {769, 17, 0, 112, 2, false},
@@ -106,6 +108,28 @@ TEST(Sgm, MatchesReferenceFourPathsAcrossColumnBlocks) {
     }
     SCOPED_TRACE(testing::Message() << c.W << "x" << c.H << " D=" << c.num_d);
     ExpectIdentical(ComputeSgm(l, r, p), ComputeSgmReference(l, r, p));
+  }
+}
+
+// The column blocks follow the thread count; the output must not (bit-identical for 1..5 threads).
+TEST(Sgm, IdenticalForAnyThreadCount) {
+  cv::Mat l, r;
+  MakePair(700, 37, 11, &l, &r);
+  SgmParams p;
+  p.num_paths = 4;
+  p.num_disparities = 40;
+  SgmOutput first;
+  for (int threads = 1; threads <= 5; ++threads) {
+    SCOPED_TRACE(testing::Message() << threads << " threads");
+    tbb::task_arena arena(threads);
+    SgmOutput out;
+    arena.execute([&] { out = ComputeSgm(l, r, p); });
+    if (threads == 1) {
+      ExpectIdentical(out, ComputeSgmReference(l, r, p));
+      first = out;
+      continue;
+    }
+    ExpectIdentical(out, first);
   }
 }
 
