@@ -3,33 +3,13 @@
 // byte string so tests can round-trip known content through std::stringstream.
 
 #include <cstdint>
+#include "formats/byte_writer.h"
 #include <cstring>
 #include <string>
 
 namespace rs::dataflash::testing {
 
-/// Appends little-endian values.
-class Payload {
- public:
-  template <typename T>
-  Payload& Put(T v) {
-    char b[sizeof(T)];
-    std::memcpy(b, &v, sizeof(T));
-    s_.append(b, sizeof(T));
-    return *this;
-  }
-  /// Fixed-size text field, NUL padded.
-  Payload& Text(const std::string& t, size_t n) {
-    std::string f = t.substr(0, n);
-    f.resize(n, '\0');
-    s_ += f;
-    return *this;
-  }
-  const std::string& str() const { return s_; }
-
- private:
-  std::string s_;
-};
+using Payload = rs::LittleEndianBytes;
 
 /// Builds a DataFlash byte stream.
 class DataflashBuilder {

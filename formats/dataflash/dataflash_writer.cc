@@ -1,5 +1,7 @@
 #include "formats/dataflash/dataflash_writer.h"
 
+#include "formats/byte_writer.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstring>
@@ -84,9 +86,7 @@ class Message {
   }
   template <typename T>
   Message& Put(T v) {
-    char b[sizeof(T)];
-    std::memcpy(b, &v, sizeof(T));
-    row_.append(b, sizeof(T));
+    row_.Put(v);
     return *this;
   }
   /// Ends the record being built; `boot_us` orders it among all messages.
@@ -95,7 +95,7 @@ class Message {
     m += static_cast<char>(kHead1);
     m += static_cast<char>(kHead2);
     m += static_cast<char>(type_);
-    m += row_;
+    m += row_.str();
     if (m.size() != Length()) throw std::logic_error("DataFlash writer: record length differs from its FMT");
     rows->emplace_back(boot_us, std::move(m));
     row_.clear();
@@ -122,16 +122,13 @@ class Message {
     m += static_cast<char>(kFmtType);
     m += static_cast<char>(type);
     m += static_cast<char>(length);
-    auto fixed = [&](const std::string& s, size_t n) { m += s + std::string(n - s.size(), '\0'); };
-    fixed(name, 4);
-    fixed(format, 16);
-    fixed(labels, 64);
-    return m;
+    return m + LittleEndianBytes().Text(name, 4).Text(format, 16).Text(labels, 64).str();
   }
 
  private:
   uint8_t type_;
-  std::string name_, format_, labels_, row_;
+  std::string name_, format_, labels_;
+  LittleEndianBytes row_;  // the record being built
 };
 
 }  // namespace
@@ -233,11 +230,7 @@ void WriteDataflashTrack(std::ostream& out, const FlightTrack& track, const Data
 }
 
 void WriteDataflashTrack(const std::filesystem::path& path, const FlightTrack& track, const DataflashWriteOptions& options) {
-  std::ofstream out(path, std::ios::binary);
-  if (!out) throw std::runtime_error("cannot open " + path.string() + " for writing");
-  WriteDataflashTrack(out, track, options);
-  out.close();
-  if (!out) throw std::runtime_error("cannot write " + path.string());
+  WriteBinaryFile(path, [&](std::ostream& out) { WriteDataflashTrack(out, track, options); });
 }
 
 }  // namespace rs

@@ -12,6 +12,7 @@
 #include "formats/dataflash/dataflash_track.h"
 #include "formats/dataflash/gps_time.h"
 #include "formats/flight_log/flight_log.h"
+#include "formats/writer_test_attitude.h"
 
 namespace rs {
 namespace {
@@ -22,19 +23,8 @@ constexpr double kGeoidM = 47.25;
 constexpr int64_t kT0 = 1'700'000'000'000'123'456LL;
 constexpr int64_t kMs = 1'000'000;
 
-void EulerRad(double t_s, double* r, double* p, double* y) {
-  *r = 20 * kPi / 180 * std::sin(0.3 * t_s);
-  *p = 10 * kPi / 180 * std::cos(0.2 * t_s);
-  *y = std::fmod(37 * kPi / 180 * t_s, 2 * kPi);
-}
-AttitudeSample TruthAttitude(int64_t t_ns) {
-  double r, p, y;
-  EulerRad((t_ns - kT0) * 1e-9, &r, &p, &y);
-  const double cr = std::cos(r / 2), sr = std::sin(r / 2), cp = std::cos(p / 2), sp = std::sin(p / 2);
-  const double cy = std::cos(y / 2), sy = std::sin(y / 2);
-  return {t_ns, cr * cp * cy + sr * sp * sy, sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy,
-          cr * cp * sy - sr * sp * cy};
-}
+// Truth attitude: roll/pitch oscillate, yaw turns through 360 deg several times.
+AttitudeSample TruthAttitude(int64_t t_ns) { return test::TruthAttitudeAt(t_ns, (t_ns - kT0) * 1e-9); }
 // Rotation angle between two unit quaternions, degrees.
 double AngleDeg(const AttitudeSample& a, const AttitudeSample& b) {
   const double d = std::fabs(a.qw * b.qw + a.qx * b.qx + a.qy * b.qy + a.qz * b.qz);
@@ -137,7 +127,7 @@ TEST(DataflashWriter, Nominal) {
     EXPECT_LE(std::llabs(*utc - t), kMs / 2);
     EXPECT_EQ(cam->Int(i, *tu), 1'000'000 + (t - kT0 + 500) / 1000);  // boot clock starts at 1 s
     double rr, pp, yy;
-    EulerRad((t - kT0) * 1e-9, &rr, &pp, &yy);
+    test::TruthEulerRad((t - kT0) * 1e-9, &rr, &pp, &yy);
     // Interpolated between 50 Hz samples (error < 0.001 deg) then rounded to 0.01 deg.
     EXPECT_NEAR(cam->Value(i, *r), rr * 180 / kPi, 0.006) << i;
     EXPECT_NEAR(cam->Value(i, *p), pp * 180 / kPi, 0.006) << i;

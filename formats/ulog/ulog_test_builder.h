@@ -3,31 +3,14 @@
 // logs with known content (and known corruption) in a std::stringstream.
 
 #include <cstdint>
+#include "formats/byte_writer.h"
 #include <cstring>
 #include <string>
 #include <vector>
 
 namespace rs::ulog::testing {
 
-/// Appends little-endian values to a byte string.
-class Bytes {
- public:
-  template <typename T>
-  Bytes& Put(T v) {
-    char b[sizeof(T)];
-    std::memcpy(b, &v, sizeof(T));
-    s_.append(b, sizeof(T));
-    return *this;
-  }
-  Bytes& Str(const std::string& s) {
-    s_ += s;
-    return *this;
-  }
-  const std::string& str() const { return s_; }
-
- private:
-  std::string s_;
-};
+using Bytes = rs::LittleEndianBytes;
 
 /// Builds a ULog byte stream.
 class UlogBuilder {

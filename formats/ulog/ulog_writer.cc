@@ -1,5 +1,7 @@
 #include "formats/ulog/ulog_writer.h"
 
+#include "formats/byte_writer.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstring>
@@ -17,25 +19,7 @@ namespace {
 // Message types of the ULog spec.
 constexpr char kFlagBits = 'B', kFormat = 'F', kInfo = 'I', kAddLogged = 'A', kData = 'D';
 
-/// Little-endian byte string (every host we build for is little-endian, as ULog is).
-class Bytes {
- public:
-  template <typename T>
-  Bytes& Put(T v) {
-    char b[sizeof(T)];
-    std::memcpy(b, &v, sizeof(T));
-    s_.append(b, sizeof(T));
-    return *this;
-  }
-  Bytes& Str(const std::string& s) {
-    s_ += s;
-    return *this;
-  }
-  std::string& str() { return s_; }
-
- private:
-  std::string s_;
-};
+using Bytes = LittleEndianBytes;
 
 void PutMessage(std::string* out, char type, const std::string& payload) {
   if (payload.size() > 0xFFFF) throw std::invalid_argument("ULog message larger than 64 KiB");
@@ -175,11 +159,7 @@ void WriteUlogTrack(std::ostream& out, const FlightTrack& track, const UlogWrite
 }
 
 void WriteUlogTrack(const std::filesystem::path& path, const FlightTrack& track, const UlogWriteOptions& options) {
-  std::ofstream out(path, std::ios::binary);
-  if (!out) throw std::runtime_error("cannot open " + path.string() + " for writing");
-  WriteUlogTrack(out, track, options);
-  out.close();
-  if (!out) throw std::runtime_error("cannot write " + path.string());
+  WriteBinaryFile(path, [&](std::ostream& out) { WriteUlogTrack(out, track, options); });
 }
 
 }  // namespace rs

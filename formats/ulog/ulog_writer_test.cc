@@ -11,6 +11,7 @@
 #include "formats/flight_log/flight_log.h"
 #include "formats/ulog/ulog_file.h"
 #include "formats/ulog/ulog_track.h"
+#include "formats/writer_test_attitude.h"
 
 namespace rs {
 namespace {
@@ -21,19 +22,7 @@ constexpr double kGeoidM = 47.25;
 constexpr int64_t kT0 = 1'700'000'000'000'123'456LL;
 
 // Truth attitude: roll/pitch oscillate, yaw turns through 360 deg several times.
-void EulerRad(double t_s, double* r, double* p, double* y) {
-  *r = 20 * kPi / 180 * std::sin(0.3 * t_s);
-  *p = 10 * kPi / 180 * std::cos(0.2 * t_s);
-  *y = std::fmod(37 * kPi / 180 * t_s, 2 * kPi);
-}
-AttitudeSample TruthAttitude(int64_t t_ns) {
-  double r, p, y;
-  EulerRad((t_ns - kT0) * 1e-9, &r, &p, &y);
-  const double cr = std::cos(r / 2), sr = std::sin(r / 2), cp = std::cos(p / 2), sp = std::sin(p / 2);
-  const double cy = std::cos(y / 2), sy = std::sin(y / 2);
-  return {t_ns, cr * cp * cy + sr * sp * sy, sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy,
-          cr * cp * sy - sr * sp * cy};
-}
+AttitudeSample TruthAttitude(int64_t t_ns) { return test::TruthAttitudeAt(t_ns, (t_ns - kT0) * 1e-9); }
 
 // 30 s: fixes at 5 Hz (ellipsoidal heights), attitude at 50 Hz, 20 camera events between samples.
 FlightTrack TestTrack() {
