@@ -57,6 +57,9 @@ void SegmentOptions::Check() const {
   Require(grow_fraction > 0 && grow_fraction <= 1, "grow_fraction", grow_fraction, "in", "(0, 1]", 1);
   Require(slic_region_size_px == 0 || slic_region_size_px >= 4, "slic_region_size_px", slic_region_size_px, ">=",
           "4 (or 0 = off)", 4);
+  Require(noise_cell_px == 0 || noise_cell_px >= 4, "noise_cell_px", noise_cell_px, ">=", "4 (or 0 = off)", 4);
+  Require(edge_min_gradient >= 0, "edge_min_gradient", edge_min_gradient, ">=", "0", 0);
+  Require(edge_margin_px >= 0, "edge_margin_px", edge_margin_px, ">=", "0", 0);
   Require(slic_ruler > 0, "slic_ruler", slic_ruler, ">", "0", 0);
   Require(superpixel_vote > 0 && superpixel_vote < 1, "superpixel_vote", superpixel_vote, "in", "(0, 1)", 0);
   Require(invalid_fill_fraction > 0 && invalid_fill_fraction <= 1, "invalid_fill_fraction", invalid_fill_fraction,
@@ -73,6 +76,11 @@ const OptionTable<SegmentOptions>& SegmentOptions::Table() {
   static const auto table = OptionTable<O>()
       .Add("min_threshold_sigma", &O::min_threshold_sigma, "threshold at least this many σ below the road").Above(0)
       .Add("max_threshold_sigma", &O::max_threshold_sigma, "threshold at most this many σ below the road").Above(0)
+      .Add("noise_cell_px", &O::noise_cell_px, "calibrated: cell of the local noise map thresholds are counted in (0 = one global σ)", "px").Min(0)
+      .Add("edge_min_gradient", &O::edge_min_gradient,
+           "calibrated: pixels near image steps this strong (blurred, grey levels/px; paint edges) get their own local noise (0 = off)")
+      .Min(0)
+      .Add("edge_margin_px", &O::edge_margin_px, "distance from such a step of those pixels", "px").Min(0)
       .Add("slic_region_size_px", &O::slic_region_size_px, "SLIC superpixel size (0 = off)", "px").Min(0)
       .Add("slic_ruler", &O::slic_ruler, "SLIC compactness").Above(0)
       .Add("superpixel_vote", &O::superpixel_vote, "below-threshold fraction making a superpixel damage")
@@ -84,6 +92,7 @@ const OptionTable<SegmentOptions>& SegmentOptions::Table() {
       .Add("rim_depth_m", &O::rim_depth_m, "calibrated rim extension depth, floor of the local road noise threshold", "m").Above(0)
       .Add("rim_depth_fraction", &O::rim_depth_fraction, "calibrated rim threshold at least this fraction of the instance's depth")
       .Min(0).Below(1)
+      .Add("rim_ring_mean", &O::rim_ring_mean, "calibrated: then grow by whole one-pixel rings whose mean depth is significant")
       .Add("min_area_m2", &O::min_area_m2, "smallest damage kept (calibrated)", "m2").Min(0)
       .Add("min_area_px", &O::min_area_px, "smallest damage kept (uncalibrated)", "px").Min(1);
   return table;
@@ -122,6 +131,7 @@ void MeasureOptions::Check() const {
   Require(pothole_min_compactness >= 0 && pothole_min_compactness <= 1, "pothole_min_compactness",
           pothole_min_compactness, "in", "[0, 1]", 0);
   Require(pothole_min_depth_sigma >= 0, "pothole_min_depth_sigma", pothole_min_depth_sigma, ">=", "0", 0);
+  Require(pothole_min_noise_sigma >= 0, "pothole_min_noise_sigma", pothole_min_noise_sigma, ">=", "0", 0);
   Require(depth_percentile > 0.5 && depth_percentile <= 1, "depth_percentile", depth_percentile, "in", "(0.5, 1]",
           0);
 }
@@ -140,6 +150,9 @@ const OptionTable<MeasureOptions>& MeasureOptions::Table() {
       .Min(0).Max(1)
       .Add("pothole_min_depth_sigma", &O::pothole_min_depth_sigma,
            "depressions shallower than this many sigma_Z are 'other'")
+      .Min(0)
+      .Add("pothole_min_noise_sigma", &O::pothole_min_noise_sigma,
+           "depressions shallower than this many sigma of the local relief noise are 'other' (0 = off)")
       .Min(0)
       .Add("depth_percentile", &O::depth_percentile, "percentile of depth reported as max depth").Above(0.5).Max(1);
   return table;

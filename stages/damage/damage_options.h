@@ -38,6 +38,14 @@ struct RoadModelOptions {
 struct SegmentOptions {
   double min_threshold_sigma = 4.0;   ///< threshold at least this many robust σ below the road level
   double max_threshold_sigma = 30.0;  ///< and at most this many (caps the energy-minimising threshold)
+  /// Calibrated: cell of the local noise map (LocalReliefNoise): thresholds count in the σ of the
+  /// region a pixel lies in, not one σ for the frame (stereo noise is not stationary), px; 0 = global σ.
+  int noise_cell_px = 96;
+  /// Calibrated, with the left image and noise_cell_px > 0: pixels near strong intensity steps
+  /// (paint edges; StrongEdgeMask), where the matcher may err by more than shallow damage, get
+  /// their own local noise estimate: blurred gradient at least this many grey levels per px (0 = off) ...
+  double edge_min_gradient = 10.0;
+  int edge_margin_px = 6;  ///< ... and at most this far from such a step, px
   int slic_region_size_px = 16;       ///< SLIC superpixel size used to snap boundaries, px (0 = no SLIC)
   double slic_ruler = 20.0;           ///< SLIC compactness
   double superpixel_vote = 0.4;       ///< fraction of below-threshold pixels that makes a superpixel damage
@@ -46,6 +54,7 @@ struct SegmentOptions {
   int morph_radius_px = 2;            ///< opening/closing radius, px
   double rim_depth_m = 0.001;         ///< calibrated: rim extension threshold floor (raised to the local road noise), m
   double rim_depth_fraction = 0.03;   ///< calibrated: rim threshold at least this fraction of the instance's depth
+  bool rim_ring_mean = true;          ///< calibrated: then grow by whole rings whose mean depth is significant (ExtendToRim)
   double min_area_m2 = 0.005;         ///< smallest damage kept when calibration is known, m²
   int min_area_px = 400;              ///< smallest damage kept without calibration, px
   void Check() const;
@@ -80,6 +89,11 @@ struct MeasureOptions {
   /// Max depth must reach this many σ_Z (stereo depth noise at the instance's range): far
   /// depressions within the noise are "other".
   double pothole_min_depth_sigma = 1.0;
+  /// Max depth must reach this many σ of the road's measured local noise (the LocalReliefNoise map
+  /// of the segmentation, as depth below the surface, averaged over the instance; needs
+  /// segment.noise_cell_px > 0): a depression no deeper than the ripples around it is not
+  /// confirmed as a pothole. 0 = off.
+  double pothole_min_noise_sigma = 8.0;
   double depth_percentile = 0.99;       ///< max depth = this percentile of per-pixel depth (rejects single-pixel spikes)
   void Check() const;
   static const OptionTable<MeasureOptions>& Table();

@@ -2,7 +2,9 @@
 
 #include "stages/damage/cracks.h"
 #include "stages/damage/damage_output.h"
+#include "stages/damage/image_edges.h"
 #include "stages/damage/measure.h"
+#include "stages/damage/relief_noise.h"
 #include "stages/damage/severity.h"
 
 #include <nlohmann/json.hpp>
@@ -99,7 +101,35 @@ FrameDamage DetectDamage(const cv::Mat& input_disparity_px, const cv::Mat& left_
   t0 = std::chrono::steady_clock::now();
   ReliefImage relief{f.relief.transformed_disparity_px, f.relief.valid_mask & (f.relief.obstacle_mask == 0)};
   const cv::Mat area = PixelAreaOnRoad(f.relief, g, f.surface);
-  const DepressionSegmentation seg = SegmentDepressions(relief, o.segment, area);
+  const ReliefScale scale = EstimateReliefScale(relief);
+  // Seeds must be significant against the noise where they lie (LocalReliefNoise, never below
+  // the frame's σ). Pixels next to strong image steps (paint edges) form their own noise class,
+  // estimated from those pixels alone: where the matcher fails there (0.3-1 px) they cannot seed
+  // a depression, where it does not (the truth disparity) nothing changes.
+  cv::Mat noise, road_noise;
+  if (o.segment.noise_cell_px > 0) {
+    cv::Mat reliable = relief.valid, edges;
+    if (!left_image.empty() && o.segment.edge_min_gradient > 0) {
+      edges = StrongEdgeMask(left_image, o.segment.edge_min_gradient, o.segment.edge_margin_px);
+      reliable = relief.valid & (edges == 0);
+    }
+    // Road samples beyond 40 frame σ above the road are structure (the smoothed fringe of an
+    // obstacle, the model bent beside it), not matching noise; at paint edges they are the noise.
+    noise = LocalReliefNoise(relief.value, reliable, scale.road_level, o.segment.noise_cell_px, scale.sigma, 40.0);
+    road_noise = noise.clone();
+    if (!edges.empty() && cv::countNonZero(edges) > 0) {
+      const cv::Mat edge_noise =
+          LocalReliefNoise(relief.value, relief.valid & edges, scale.road_level, o.segment.noise_cell_px, scale.sigma);
+      for (int v = 0; v < noise.rows; ++v) {
+        float* n = noise.ptr<float>(v);
+        const float* en = edge_noise.ptr<float>(v);
+        const uchar* e = edges.ptr<uchar>(v);
+        for (int u = 0; u < noise.cols; ++u)
+          if (e[u]) n[u] = std::max(n[u], en[u]);
+      }
+    }
+  }
+  const DepressionSegmentation seg = SegmentDepressions(relief, o.segment, area, scale, noise);
   f.labels = seg.labels;
   f.threshold_sigma = seg.threshold_sigma;
   if (o.road.local_cell_px > 0 && seg.count > 0) {
@@ -115,11 +145,13 @@ FrameDamage DetectDamage(const cv::Mat& input_disparity_px, const cv::Mat& left_
     cv::resize(small, exclude, f.labels.size(), 0, 0, cv::INTER_NEAREST);
     RefineRoadRelief(f.relief, evaluated, disparity_px, g, f.surface, o.road, exclude);
   }
-  ExtendToRim(f.labels, f.relief, o.segment.rim_depth_m, o.segment.rim_depth_fraction);
+  ExtendToRim(f.labels, f.relief, o.segment.rim_depth_m, o.segment.rim_depth_fraction,
+              o.segment.rim_ring_mean ? o.road.relief_smooth_px : 0);
   f.ms_segment = MsSince(t0);
 
   t0 = std::chrono::steady_clock::now();
-  f.instances = MeasureDepressions(f.labels, f.relief, g, f.surface, o.measure);
+  f.instances = MeasureDepressions(f.labels, f.relief, g, f.surface, o.measure,
+                                   o.measure.pothole_min_noise_sigma > 0 ? road_noise : cv::Mat());
   f.ms_measure = MsSince(t0);
 
   if (o.crack.enabled && !left_image.empty()) {

@@ -21,17 +21,24 @@ cv::Mat PixelAreaOnRoad(const RoadRelief& relief, const StereoGeometry& geometry
 /// of the unsupervised segmentation stops short of the shallow rim. Rim threshold = the largest
 /// of `rim_depth_m`, `rim_depth_fraction` × the instance's depth (99th percentile) and
 /// median + 3 robust σ of the depth in the ring between one and two bands outside the instance
-/// (local road-model misfit and stereo noise).
-void ExtendToRim(cv::Mat& labels, const RoadRelief& relief, double rim_depth_m, double rim_depth_fraction = 0);
+/// (local road-model misfit and stereo noise). With `ring_window_px` > 0 (the relief's smoothing
+/// window), whole one-pixel rings outside that then join while their mean depth exceeds the
+/// ring's level by 2 σ of a mean (σ·w/√n) and the first two terms (the wall's shallow outer part,
+/// below the per-pixel noise).
+void ExtendToRim(cv::Mat& labels, const RoadRelief& relief, double rim_depth_m, double rim_depth_fraction = 0,
+                 int ring_window_px = 0);
 
 /// Measures every instance 1..max of a CV_16U label image. Invalid pixels inside an
 /// instance count for area and take the instance's mean depth for the volume.
 /// Type: pothole when max depth ≥ pothole_min_depth_m and ≥ pothole_min_depth_sigma · σ_Z, equivalent diameter ≥
 /// pothole_min_diameter_m, area ≥ pothole_min_compactness · π/4 · max diameter² and the
 /// half-max-depth core at least pothole_min_core_width_m wide (CoreWidthM), otherwise other. Severity is not graded here.
+/// `noise_px` (optional CV_32F, the road's local disparity noise σ in px, e.g. LocalReliefNoise of
+/// the transformed disparity): a pothole's max depth must also reach pothole_min_noise_sigma times
+/// its mean over the instance as depth below the surface (σ·Z²/(f·B)·|n·ray|).
 std::vector<DamageInstance> MeasureDepressions(const cv::Mat& labels, const RoadRelief& relief,
                                                const StereoGeometry& geometry, const RoadSurface& surface,
-                                               const MeasureOptions& options);
+                                               const MeasureOptions& options, const cv::Mat& noise_px = cv::Mat());
 
 /// Width (m) of the largest circle inscribed in the part of instance `id` at least
 /// `min_depth_m` below the road (pixel widths from `pixel_area_m2`); 0 when empty.

@@ -281,7 +281,8 @@ double EnergyThresholdSigma(const cv::Mat& z, const cv::Mat& valid, const Segmen
 }
 
 DepressionSegmentation SegmentDepressions(const ReliefImage& relief, const SegmentOptions& o,
-                                          const cv::Mat& pixel_area_m2, std::optional<ReliefScale> scale) {
+                                          const cv::Mat& pixel_area_m2, std::optional<ReliefScale> scale,
+                                          const cv::Mat& noise_sigma) {
   o.Check();
   if (relief.value.type() != CV_32FC1 || relief.valid.type() != CV_8UC1 || relief.value.size() != relief.valid.size())
     throw std::invalid_argument("SegmentDepressions: relief must be CV_32F with a CV_8U mask of the same size");
@@ -290,12 +291,28 @@ DepressionSegmentation SegmentDepressions(const ReliefImage& relief, const Segme
   DepressionSegmentation out;
   out.scale = scale ? *scale : EstimateReliefScale(relief);
   if (!(out.scale.sigma > 0)) throw std::invalid_argument("SegmentDepressions: relief scale sigma must be > 0");
+  if (!noise_sigma.empty() && (noise_sigma.type() != CV_32FC1 || noise_sigma.size() != relief.value.size()))
+    throw std::invalid_argument("SegmentDepressions: noise_sigma must be CV_32F of the relief's size");
   cv::Mat z;
   relief.value.convertTo(z, CV_32F, 1.0 / out.scale.sigma, -out.scale.road_level / out.scale.sigma);
   out.threshold_sigma = EnergyThresholdSigma(z, relief.valid, o);
-
   cv::Mat seed = (z < -out.threshold_sigma) & relief.valid;
   cv::Mat grow = (z < -o.grow_fraction * out.threshold_sigma) & relief.valid;
+  if (!noise_sigma.empty()) {
+    // Seeds must also be significant against the noise where they lie: at least
+    // min_threshold_sigma local σ below the road. Quiet regions keep the frame's threshold;
+    // growth stays on the frame's σ, so a seeded region is not cut by the noise estimate's
+    // own rise around large damage (the local road correction's misfit there).
+    const float level = static_cast<float>(out.scale.road_level), k = static_cast<float>(o.min_threshold_sigma);
+    for (int v = 0; v < seed.rows; ++v) {  // seeds are sparse: test only them
+      uchar* sd = seed.ptr<uchar>(v);
+      const float* x = relief.value.ptr<float>(v);
+      const float* ns = noise_sigma.ptr<float>(v);
+      for (int u = 0; u < seed.cols; ++u)
+        if (sd[u] && !(x[u] - level < -k * ns[u])) sd[u] = 0;
+    }
+    out.noise_sigma = noise_sigma;
+  }
   // Seeds must survive a small opening, so isolated noisy pixels do not start regions.
   if (o.morph_radius_px > 0) cv::morphologyEx(seed, seed, cv::MORPH_OPEN, Disk(o.morph_radius_px));
   cv::Mat mask = Hysteresis(seed, grow);

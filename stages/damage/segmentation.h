@@ -41,6 +41,7 @@ struct DepressionSegmentation {
   ReliefScale scale;            ///< level and σ used
   double threshold_sigma = 0;   ///< chosen threshold, σ below the road level (positive)
   int dropped_small = 0;        ///< components removed by the minimum size
+  cv::Mat noise_sigma;          ///< CV_32F per-pixel σ the seeds were tested against (the caller's map; may be empty)
 };
 
 /// Energy-minimising threshold on normalised relief z = (value − level)/σ: the
@@ -53,9 +54,12 @@ double EnergyThresholdSigma(const cv::Mat& z, const cv::Mat& valid, const Segmen
 
 /// Segments depressions. `scale` overrides the robust estimate when given.
 /// `pixel_area_m2` (CV_32F, road-plane area of each pixel) enables the metric
-/// minimum size; empty = use options.min_area_px.
+/// minimum size; empty = use options.min_area_px. `noise_sigma` (CV_32F, per-pixel σ in the
+/// relief's units, e.g. LocalReliefNoise): a seed must also lie min_threshold_sigma of it below
+/// the road (significant against the noise where it lies); growth keeps the frame's threshold.
 DepressionSegmentation SegmentDepressions(const ReliefImage& relief, const SegmentOptions& options,
                                           const cv::Mat& pixel_area_m2 = cv::Mat(),
-                                          std::optional<ReliefScale> scale = std::nullopt);
+                                          std::optional<ReliefScale> scale = std::nullopt,
+                                          const cv::Mat& noise_sigma = cv::Mat());
 
 }  // namespace rs

@@ -1,4 +1,5 @@
 #include "stages/damage/segmentation.h"
+#include "stages/damage/relief_noise.h"
 #include "tests/support/test_data.h"
 
 #include "stages/damage/damage_eval.h"
@@ -61,6 +62,41 @@ TEST(SegmentDepressions, Nominal) {
     const PixelMetrics m = ComparePixels(seg.labels, truth);
     EXPECT_GT(m.f1, 0.85) << depth;
   }
+}
+
+// Non-stationary noise: the right half of the road has 5× the noise of the left, correlated over
+// ~8 px (smoothed, as stereo ripples), with no damage; the left half holds a bowl 10 σ_left deep.
+// With one σ for the frame the right half's ripples seed false depressions; tested against the
+// local noise (LocalReliefNoise) only the bowl is found.
+TEST(SegmentDepressions, LocalNoiseRejectsRipples) {
+  cv::Mat white(360, 640, CV_32F), value;
+  std::mt19937 rng(11);
+  std::normal_distribution<float> n(0.f, 1.f);
+  for (int v = 0; v < white.rows; ++v)
+    for (int u = 0; u < white.cols; ++u) white.at<float>(v, u) = n(rng);
+  cv::GaussianBlur(white, value, {0, 0}, 3.0);
+  cv::Scalar mean, sd;
+  cv::meanStdDev(value, mean, sd);
+  value *= 0.1 / sd[0];  // σ 0.1 px
+  value(cv::Rect(320, 0, 320, 360)) *= 5.0;
+  for (int v = 0; v < value.rows; ++v)
+    for (int u = 0; u < value.cols; ++u) {
+      const double r = std::hypot(u - 160, v - 180) / 50.0;
+      value.at<float>(v, u) += static_cast<float>(30.0 - (r < 1 ? 1.0 * (1 - r * r) : 0.0));
+    }
+  const ReliefImage relief{value, cv::Mat(value.size(), CV_8U, cv::Scalar(255))};
+  SegmentOptions o;
+  o.min_area_px = 100;
+  const ReliefScale scale = EstimateReliefScale(relief);
+  const DepressionSegmentation global = SegmentDepressions(relief, o, cv::Mat(), scale);
+  // The map resolves the noise to about two cells (64 px): judged beyond them from the step.
+  const cv::Rect noisy(448, 0, 192, 360);
+  EXPECT_GT(cv::countNonZero(global.labels(noisy)), 0);  // the ripples, with one σ for the frame
+  const cv::Mat noise = LocalReliefNoise(relief.value, relief.valid, scale.road_level, 64, scale.sigma);
+  const DepressionSegmentation local = SegmentDepressions(relief, o, cv::Mat(), scale, noise);
+  EXPECT_EQ(cv::countNonZero(local.labels(noisy)), 0);
+  EXPECT_LE(local.count, 2);
+  EXPECT_GT(local.labels.at<uint16_t>(180, 160), 0);
 }
 
 TEST(SegmentDepressions, FlatRoadHasNoDamage) {

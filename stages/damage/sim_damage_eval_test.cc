@@ -126,6 +126,7 @@ TEST(SimDamageEval, Benchmark) {
   SimDamageEvalOptions o;
   if (const char* step = std::getenv("ROADSURVEY_SIM_EVAL_STEP")) o.frame_step = std::atoi(step);
   o.use_truth_disparity = std::getenv("ROADSURVEY_SIM_EVAL_TRUTH") != nullptr;
+  o.disparity.road.quadratic = std::getenv("ROADSURVEY_SIM_EVAL_QUADRATIC") != nullptr;  // cambered road model
   if (const char* range = std::getenv("ROADSURVEY_SIM_EVAL_MAX_RANGE")) o.max_range_m = std::atof(range);
   if (const char* n = std::getenv("ROADSURVEY_SIM_EVAL_MAX_FRAMES")) o.max_frames = std::atoi(n);
   if (const char* debug = std::getenv("ROADSURVEY_SIM_EVAL_DEBUG")) o.debug_dir = debug;

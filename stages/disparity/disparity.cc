@@ -13,6 +13,7 @@
 #include <opencv2/imgproc.hpp>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 
 #include "stages/disparity/perspective_transform.h"
 
@@ -64,6 +65,8 @@ void DisparityParams::Check() const {
   if (!(gpt_headroom_px >= 0)) fail("gpt_headroom_px", Num(gpt_headroom_px), "gpt_headroom_px >= 0");
   if (fill_min_neighbours < 0 || fill_min_neighbours > 8)
     fail("fill_min_neighbours", std::to_string(fill_min_neighbours), "0 <= fill_min_neighbours <= 8");
+  if (refine_window < 0 || (refine_window > 0 && refine_window % 2 == 0) || refine_window > 31)
+    fail("refine_window", std::to_string(refine_window), "refine_window = 0 or odd, <= 31");
   if (speckle_window_size < 0) fail("speckle_window_size", std::to_string(speckle_window_size), "speckle_window_size >= 0");
   if (!(gpt_min_valid_fraction >= 0 && gpt_min_valid_fraction <= 1))
     fail("gpt_min_valid_fraction", Num(gpt_min_valid_fraction), "0 <= gpt_min_valid_fraction <= 1");
@@ -344,6 +347,133 @@ void MedianValid3x3(cv::Mat* disparity, const cv::Mat& valid) {
   });
 }
 
+namespace {
+
+// img minus its local mean (box of kHighPassBox px), CV_16S.
+void HighPass(const cv::Mat& img, cv::Mat* out) {
+  constexpr int kHighPassBox = 15;
+  thread_local cv::Mat tls_mean;
+  cv::blur(img, tls_mean, cv::Size(kHighPassBox, kHighPassBox), cv::Point(-1, -1), cv::BORDER_REPLICATE);
+  cv::subtract(img, tls_mean, *out, cv::noArray(), CV_16S);
+}
+
+// RefineSubpixel's per-pixel terms: num = k G^2 - 24 e G, den = G^2 (both 0 when |24 e G| > G^2) for the
+// pixels [u0, u0 + n) of a row, all with the integer disparity k and T already offset by -k
+// (Tk[u] = T[u - k]); 0 where invalid. In a function of its own with __restrict pointers and a
+// loop-invariant k, the loads are contiguous and the loop vectorises.
+__attribute__((noinline)) void RefineTerms(const int16_t* __restrict L, const int16_t* __restrict Tk, const uint8_t* __restrict m,
+                        int k, int u0, int n, float* __restrict num, float* __restrict den) {
+  for (int u = u0; u < u0 + n; ++u) {
+    // 24 x the mean of both views' derivatives: the derivative at the midpoint of the step, so
+    // one Gauss-Newton step is exact for quadratic intensity profiles (efficient second-order
+    // minimisation), each by the 5-tap difference (8 (I+1 - I-1) - (I+2 - I-2)) / 12 (central
+    // differences underestimate the slope of fine texture by sin(w)/w and the step overshoots).
+    const int g = 8 * (Tk[u + 1] - Tk[u - 1]) - (Tk[u + 2] - Tk[u - 2]) + 8 * (L[u + 1] - L[u - 1]) - (L[u + 2] - L[u - 2]);
+    const int e = L[u] - Tk[u];
+    const int g2 = g * g;
+    // The pixel's step is 24 e G / G^2; one beyond 1 px means SGM's winner there is off by a
+    // pixel or more (the inside edge of a painted line, an occlusion), and the pixel is left out
+    // (measured: slightly better than clamping its step to 1 px).
+    const int eg = 24 * e * g;
+    // A 0/1 weight in int lanes and a multiply, not a branch or a bool: the loop vectorises.
+    const int ok = static_cast<int>(m[u]) * static_cast<int>(eg <= g2) * static_cast<int>(eg >= -g2);
+    const float w = static_cast<float>(ok != 0);
+    num[u] = w * (static_cast<float>(k) * static_cast<float>(g2) - static_cast<float>(eg));
+    den[u] = w * static_cast<float>(g2);
+  }
+}
+
+// One row of terms: runs of pixels sharing one integer disparity (long ones after the per-pixel
+// warp: the road's residual is delta everywhere) go to RefineTerms whole, the run's ends that
+// would read outside either image get no terms.
+void RefineTermsRow(const int16_t* L, const int16_t* T, const uint8_t* m, const float* d, int W, int* k_row,
+                    float* num, float* den) {
+  for (int u = 0; u < W; ++u) k_row[u] = static_cast<int>(std::nearbyint(d[u]));
+  for (int u0 = 0; u0 < W;) {
+    const int k = k_row[u0];
+    int u1 = u0 + 1;
+    while (u1 < W && k_row[u1] == k) ++u1;
+    // Inside both images with the 5-tap neighbourhoods: u in [2, W - 3] and u - k in [2, W - 3].
+    const int lo = std::max({u0, 2, 2 + k}), hi = std::min({u1, W - 2, W - 2 + k});
+    for (int u = u0; u < std::min(lo, u1); ++u) num[u] = 0, den[u] = 0;
+    if (lo < hi) RefineTerms(L, T - k, m, k, lo, hi - lo, num, den);
+    for (int u = std::max(hi, u0); u < u1; ++u) num[u] = 0, den[u] = 0;
+    u0 = u1;
+  }
+}
+
+// RefineSubpixel's last step for one row: l = num / den where valid, textured enough and within
+// 1 px of SGM's value.
+void RefineApplyRow(const float* __restrict sum_n, const float* __restrict sum_d, const uint8_t* __restrict m,
+                    int W, float min_weight, float* __restrict d) {
+  for (int u = 0; u < W; ++u) {
+    const float l = sum_n[u] / std::max(sum_d[u], 1.0f);
+    const bool take = (m[u] != 0) & (sum_d[u] >= min_weight) & (std::abs(l - d[u]) <= 1.0f);
+    d[u] = take ? l : d[u];
+  }
+}
+
+// acc[u] = sum of col[u + t], t in [-r, r] (col readable there).
+void BoxRow(const float* __restrict col, int W, int r, float* __restrict acc) {
+  std::fill(acc, acc + W, 0.0f);
+  for (int t = -r; t <= r; ++t)
+    for (int u = 0; u < W; ++u) acc[u] += col[u + t];
+}
+
+// col[u] += sign * row[u].
+void AddRow(const float* __restrict row, int W, float sign, float* __restrict col) {
+  for (int u = 0; u < W; ++u) col[u] += sign * row[u];
+}
+
+}  // namespace
+
+void RefineSubpixel(const cv::Mat& ref, const cv::Mat& target, cv::Mat* disparity, const cv::Mat& valid, int window) {
+  if (window <= 0) return;
+  const int W = ref.cols, H = ref.rows, r = window / 2;
+  // Texture the window needs: a mean squared slope of 4 (2 grey levels per px; G = 24 x slope).
+  // Below it (inside a painted line, a shadow's flat core) the intensities say nothing and SGM's
+  // value stays.
+  constexpr float kMinMeanWeight = 4.0f * 24.0f * 24.0f;
+  const float min_weight = kMinMeanWeight * static_cast<float>(window * window);
+  // High-pass both images (minus a local mean): the cameras' gain and vignetting differ, and an
+  // intensity offset between the views biases an intensity residual (the census SGM ran on is
+  // immune to it, this least-squares step is not: without it the refinement was worse than SGM).
+  thread_local cv::Mat tls_ref_hp, tls_target_hp;  // reused across frames (page faults)
+  cv::Mat &ref_hp = tls_ref_hp, &target_hp = tls_target_hp;
+  tbb::parallel_invoke([&] { HighPass(ref, &ref_hp); }, [&] { HighPass(target, &target_hp); });
+  // Bands of rows, each on its own: the terms of the band's rows and r rows either side (the
+  // window's reach; recomputed by both neighbouring bands — cheaper than a second parallel pass
+  // over full-size maps), column sums sliding down the band, then each row's horizontal sums. The
+  // result replaces SGM's value in place, so the integer winners are read from a copy (a band's
+  // halo rows belong to its neighbours, which may already have refined them).
+  constexpr int kBand = 64;
+  thread_local cv::Mat tls_sgm;
+  cv::Mat& sgm = tls_sgm;
+  disparity->copyTo(sgm);
+  tbb::parallel_for(tbb::blocked_range<int>(0, H, kBand), [&](const tbb::blocked_range<int>& rows) {
+    const int y0 = std::max(0, rows.begin() - r), y1 = std::min(H, rows.end() + r);
+    std::vector<float> num(static_cast<size_t>(y1 - y0) * W), den(num.size());
+    std::vector<int> k_row(W);
+    for (int y = y0; y < y1; ++y)
+      RefineTermsRow(ref_hp.ptr<int16_t>(y), target_hp.ptr<int16_t>(y), valid.ptr<uint8_t>(y), sgm.ptr<float>(y), W,
+                     k_row.data(), num.data() + static_cast<size_t>(y - y0) * W, den.data() + static_cast<size_t>(y - y0) * W);
+    std::vector<float> col_n(W + 2 * r, 0.0f), col_d(W + 2 * r, 0.0f), sum_n(W), sum_d(W);
+    float *cn = col_n.data() + r, *cd = col_d.data() + r;
+    auto add_row = [&](int y, float sign) {
+      if (y < y0 || y >= y1) return;
+      AddRow(num.data() + static_cast<size_t>(y - y0) * W, W, sign, cn);
+      AddRow(den.data() + static_cast<size_t>(y - y0) * W, W, sign, cd);
+    };
+    for (int y = rows.begin() - r; y <= rows.begin() + r; ++y) add_row(y, 1.0f);
+    for (int v = rows.begin(); v < rows.end(); ++v) {
+      if (v > rows.begin()) add_row(v + r, 1.0f), add_row(v - r - 1, -1.0f);
+      BoxRow(cn, W, r, sum_n.data());
+      BoxRow(cd, W, r, sum_d.data());
+      RefineApplyRow(sum_n.data(), sum_d.data(), valid.ptr<uint8_t>(v), W, min_weight, disparity->ptr<float>(v));
+    }
+  });
+}
+
 int64_t FillSmallHoles(cv::Mat* disparity, cv::Mat* valid, int min_neighbours, double max_spread_px) {
   if (min_neighbours <= 0 || min_neighbours > 8) return 0;
   const int W = disparity->cols, H = disparity->rows;
@@ -397,6 +527,7 @@ DisparityResult ComputeDisparity(const cv::Mat& left, const cv::Mat& right, cons
 
   SgmOutput sgm;
   std::vector<double> kappa;
+  cv::Mat ref_s, target_s;  // the images SGM compared (the sub-pixel refinement reads them)
   if (gpt) {
     t0 = std::chrono::steady_clock::now();
     kappa = ComputeGptShift(res.road, W, H, P.gpt_delta_px);
@@ -416,16 +547,16 @@ DisparityResult ComputeDisparity(const cv::Mat& left, const cv::Mat& right, cons
       sp.row_offset.resize(H);
       for (int v = 0; v < H; ++v) sp.row_offset[v] = static_cast<int>(std::floor(kappa[v]));
     }
-    const cv::Mat left_s = Presmooth(left, P.presmooth_sigma_px), target_s = Presmooth(target, P.presmooth_sigma_px);
+    ref_s = Presmooth(left, P.presmooth_sigma_px), target_s = Presmooth(target, P.presmooth_sigma_px);
     res.timings.warp_ms = MsSince(t0);
-    sgm = ComputeSgm(left_s, target_s, sp);
+    sgm = ComputeSgm(ref_s, target_s, sp);
     res.method_used = DisparityMethod::kGptSgm;
   } else {
     res.num_disparities = P.num_disparities;
     t0 = std::chrono::steady_clock::now();
-    const cv::Mat left_s = Presmooth(left, P.presmooth_sigma_px), right_s = Presmooth(right, P.presmooth_sigma_px);
+    ref_s = Presmooth(left, P.presmooth_sigma_px), target_s = Presmooth(right, P.presmooth_sigma_px);
     res.timings.warp_ms = MsSince(t0);
-    sgm = ComputeSgm(left_s, right_s, P.ToSgm(P.min_disparity, P.num_disparities));
+    sgm = ComputeSgm(ref_s, target_s, P.ToSgm(P.min_disparity, P.num_disparities));
     res.method_used = DisparityMethod::kSgm;
   }
   res.timings.census_ms = sgm.census_ms;
@@ -433,6 +564,7 @@ DisparityResult ComputeDisparity(const cv::Mat& left, const cv::Mat& right, cons
   res.timings.wta_ms = sgm.wta_ms;
 
   t0 = std::chrono::steady_clock::now();
+  RefineSubpixel(ref_s, target_s, &sgm.disparity, sgm.valid, P.refine_window);
   FilterSpeckles(&sgm.disparity, &sgm.valid, P.speckle_window_size, P.speckle_max_diff_px);
   if (P.median) MedianValid3x3(&sgm.disparity, sgm.valid);
   FillSmallHoles(&sgm.disparity, &sgm.valid, P.fill_min_neighbours, P.speckle_max_diff_px);

@@ -44,6 +44,10 @@ struct DisparityParams {
   /// many of the 8 are valid and they agree within speckle_max_diff_px (isolated rejections by the
   /// uniqueness or left-right check on textured surfaces); 0 = off. Larger holes stay invalid.
   int fill_min_neighbours = 6;
+  /// Intensity sub-pixel refinement (RefineSubpixel) over refine_window x refine_window pixels,
+  /// odd; 0 = off (SGM's cost-curve sub-pixel stays). Removes SGM's pixel locking: road EPE
+  /// 0.128 -> 0.061 px on drone-low, the damage stage's road fit 6.4 -> 0.5 mm.
+  int refine_window = 9;
 
   int gpt_num_disparities = 32;  ///< GPT-SGM residual search range, px (road residual + damage depth)
   double gpt_delta_px = 8;       ///< delta: residual disparity of the road's row minimum; damage down to -delta fits
@@ -98,6 +102,20 @@ struct DisparityResult {
 /// Throws std::invalid_argument for bad parameters or images.
 DisparityResult ComputeDisparity(const cv::Mat& left_gray8, const cv::Mat& right_gray8, const DisparityParams& params,
                                  const RoadModel* prior = nullptr);
+
+/// Sub-pixel disparity from the intensities instead of SGM's cost curve: winner-takes-all plus an
+/// equiangular fit on aggregated costs pulls towards integers (pixel locking, up to ~0.15 px bias
+/// where the road's residual lies half-way between integers, i.e. wherever the road model is off).
+/// Both images are high-passed (minus a 15x15 local mean: gain and vignetting differ between the
+/// cameras). For each valid pixel n with SGM's integer winner k_n = round(l_n), e_n = ref(u) -
+/// target(u - k_n) and the derivative G_n there (mean of both views' 5-tap differences) give the
+/// linearised estimate k_n - e_n / G_n (pixels whose step exceeds 1 px are left out); a pixel's
+/// refined value is the average of these over its window x window neighbourhood weighted by
+/// G_n^2 (the window's least-squares shift, 1-D Lucas-Kanade, one Gauss-Newton step from exact
+/// integer samples). A pixel keeps its input value when the window's mean squared slope is below
+/// 4 (grey levels/px)^2 (no texture: inside painted lines) or the result moves it by more than 1 px. `disparity`: CV_32F, match at column u - l in `target`
+/// (the images SGM compared); invalid pixels are left alone. window 0 = no-op.
+void RefineSubpixel(const cv::Mat& ref, const cv::Mat& target, cv::Mat* disparity, const cv::Mat& valid, int window);
 
 /// Drops 4-connected regions of valid pixels (neighbour steps <= max_diff_px) with fewer than
 /// max_size pixels; sets their disparity to 0 and validity to 0.

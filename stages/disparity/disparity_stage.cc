@@ -79,6 +79,10 @@ const OptionTable<DisparityParams>& ParamsTable() {
           .Add("fill_min_neighbours", &DisparityParams::fill_min_neighbours,
                "fill an invalid pixel from its valid 3x3 neighbours when at least this many agree within "
                "speckle_max_diff_px (0 = off)").Min(0).Max(8)
+          .Add("refine_window", &DisparityParams::refine_window,
+               "window of the intensity sub-pixel refinement after SGM (odd; 0 = off: SGM's cost-curve sub-pixel only)", "px")
+          .Min(0)
+          .Max(31)
           .Add("gpt_num_disparities", &DisparityParams::gpt_num_disparities,
                "GPT-SGM residual search range (road residual + damage depth)", "px")
           .Min(1)

@@ -43,17 +43,18 @@ cv::Mat WarpTarget(const cv::Mat& target, const std::vector<double>& kappa) {
 namespace {
 
 // Source column x(u) = u - (a + (b + c u) u) of each target column: floor(x) and the weight of
-// floor(x) + 1 in 1/256 steps, rounded half away from zero like std::lround (t - trunc(t) is
-// exact, so the comparison decides the same way) but in a form that vectorises. No trapping
-// math: otherwise GCC keeps double -> int conversions scalar (nothing here reads the FP flags).
+// floor(x) + 1 in 1/256 steps, rounded half up. In float (16 lanes per AVX-512 vector; the
+// double version cost ~5 ms CPU per 1280x720 pair): |x| < 2^12 leaves a resolution of 2^-12 px,
+// far below the 1/256 weight step. No trapping math: otherwise GCC keeps the float -> int
+// conversions scalar (nothing here reads the FP flags).
 __attribute__((optimize("no-trapping-math"))) void SourceColumns(double a, double b, double c, int W, int* __restrict col, int* __restrict wgt) {
+  const float af = static_cast<float>(a), bf = static_cast<float>(b), cf = static_cast<float>(c);
   for (int u = 0; u < W; ++u) {
-    const double x = u - (a + (b + c * u) * u);
-    const double fl = std::floor(x);
-    const double t = (x - fl) * 256.0;  // in [0, 256)
-    const double ti = std::trunc(t);
-    col[u] = static_cast<int>(fl);
-    wgt[u] = static_cast<int>(ti) + (t - ti >= 0.5 ? 1 : 0);
+    const float uf = static_cast<float>(u);
+    const float x = uf - (af + (bf + cf * uf) * uf);
+    const float fl = __builtin_floorf(x), hi = static_cast<float>(W);
+    col[u] = static_cast<int>(fl < -1.0f ? -1.0f : (fl > hi ? hi : fl));  // the gather's clamps give the same samples
+    wgt[u] = static_cast<int>((x - fl) * 256.0f + 0.5f);  // 0..256
   }
 }
 

@@ -49,8 +49,10 @@ struct SgmParams {
 struct SgmOutput {
   cv::Mat disparity;  ///< CV_32F, px, d = min_disparity + row_offset[v] + k + sub-pixel; 0 where invalid
   cv::Mat valid;      ///< CV_8U, 255 valid, 0 rejected (border, uniqueness or left-right)
-  double census_ms = 0;       ///< wall time of both census transforms
-  double cost_ms = 0;         ///< matching cost time summed over threads (it runs inside the aggregation pass)
+  double census_ms = 0;  ///< wall time of the census set-up (padding both images)
+  /// Census rows + matching cost, time summed over threads (both run inside the aggregation pass,
+  /// row token by row token).
+  double cost_ms = 0;
   /// Wall time of cost + path aggregation; with 4 paths it includes winner-takes-all, which is
   /// fused into the last path.
   double aggregation_ms = 0;
@@ -58,8 +60,9 @@ struct SgmOutput {
 };
 
 /// Optimised SGM on rectified 8-bit grey images of equal size (left = reference).
-/// The cost/sum volumes (W*H*D*3 bytes, padded D) are cached per calling thread and reused,
-/// so a long-lived worker keeps its largest frame's volumes allocated.
+/// The volumes (W*H*Dp*2 bytes with 4 paths and the default-sized costs and P2, else W*H*Dp*3;
+/// Dp = D padded to the vector width) are cached per calling thread and reused, so a long-lived
+/// worker keeps its largest frame's volumes allocated.
 SgmOutput ComputeSgm(const cv::Mat& left_gray8, const cv::Mat& right_gray8, const SgmParams& params);
 
 /// Naive scalar SGM of exactly the same definition (slow; for tests).

@@ -83,17 +83,23 @@ TEST(Sgm, MatchesReference631x479WithRowOffset) {
 
 // 4 paths over several column blocks (two per thread, at least Dp wide): the fused upward pass +
 // winner-takes-all and the right-view winners merged across block borders must still match the
-// reference.
+// reference. Both layouts of the 4-path passes: packed (three paths' sums and the cost in one
+// uint16; the stage defaults P1/P2 = 20/240 fill exactly 16 bits) and unpacked (P2 = 1900, or an
+// AD term making costs wider than 6 bits), with the keyed argmin on and off.
 TEST(Sgm, MatchesReferenceFourPathsAcrossColumnBlocks) {
   struct Case {
     int W, H, min_d, num_d, lr;
     bool offsets;
+    int p1 = 10, p2 = 120, ad = 0;
   };
   // Narrow last blocks (a 320-wide block for D = 300), ranges of 1..10 vectors.
   const Case cases[] = {{700, 37, -2, 40, 1, true},
                         {531, 21, 3, 33, 0, false},
                         {769, 17, 0, 112, 2, false},
-                        {700, 9, 0, 300, 1, false}};
+                        {700, 9, 0, 300, 1, false},
+                        {643, 23, 0, 32, 2, false, 20, 240},   // stage defaults: packed, 16 bits used
+                        {531, 19, 1, 40, 1, true, 10, 1900},   // unpacked, keyed argmin off
+                        {389, 27, -1, 17, 1, false, 8, 96, 5}};  // AD term: costs up to 162, unpacked
   for (const Case& c : cases) {
     cv::Mat l, r;
     MakePair(c.W, c.H, c.W + 1, &l, &r);
@@ -102,6 +108,9 @@ TEST(Sgm, MatchesReferenceFourPathsAcrossColumnBlocks) {
     p.min_disparity = c.min_d;
     p.num_disparities = c.num_d;
     p.lr_max_diff = c.lr;
+    p.p1 = c.p1;
+    p.p2 = c.p2;
+    p.ad_weight = c.ad;
     if (c.offsets) {
       p.row_offset.resize(c.H);
       for (int v = 0; v < c.H; ++v) p.row_offset[v] = (v * 5) / c.H - 1;

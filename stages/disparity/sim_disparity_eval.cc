@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <set>
 #include <string>
@@ -182,6 +183,85 @@ std::vector<StereoPairWithTruth> LoadSimulatedSurvey(const fs::path& dir, const 
   }
   if (out.empty()) throw InputError(InputLocation::File((dir / "left").string()), "no frames selected");
   return out;
+}
+
+void RoadErrorStats::Add(const RoadErrorStats& o) {
+  road += o.road, road_valid += o.road_valid;
+  road_over_025 += o.road_over_025, road_over_05 += o.road_over_05, road_over_1 += o.road_over_1;
+  road_abs_sum += o.road_abs_sum, road_signed_sum += o.road_signed_sum, road_within_3 += o.road_within_3;
+  for (size_t b = 0; b < histogram.size(); ++b) histogram[b] += o.histogram[b];
+  for (int t = 0; t < 3; ++t) third_over_025[t] += o.third_over_025[t], third_valid[t] += o.third_valid[t];
+  pothole += o.pothole, pothole_valid += o.pothole_valid, pothole_abs_sum += o.pothole_abs_sum;
+}
+
+double RoadErrorStats::RoadEpe() const { return road_valid ? road_abs_sum / double(road_valid) : 0; }
+
+double RoadErrorStats::RoadSignedMean() const { return road_within_3 ? road_signed_sum / double(road_within_3) : 0; }
+
+double RoadErrorStats::RoadShareOver(double threshold_px) const {
+  if (!road_valid) return 0;
+  const int64_t n = threshold_px >= 1 ? road_over_1 : threshold_px >= 0.5 ? road_over_05 : road_over_025;
+  return double(n) / double(road_valid);
+}
+
+double RoadErrorStats::RoadQuantile(double q) const {
+  const double target = q * double(road_valid);
+  double acc = double(histogram[0]);
+  if (acc >= target) return -1;
+  for (int b = 0; b < kBins; ++b) {
+    const double n = double(histogram[b + 1]);
+    if (acc + n >= target && n > 0) return -1 + 0.05 * (b + (target - acc) / n);
+    acc += n;
+  }
+  return 1;
+}
+
+std::string RoadErrorStats::Format() const {
+  auto share = [](int64_t n, int64_t d) { return d ? 100.0 * double(n) / double(d) : 0.0; };
+  char buf[512];
+  std::snprintf(buf, sizeof(buf),
+                "road %lld px density %.2f %% EPE %.4f signed %+.4f | >0.25 %.2f %% >0.5 %.3f %% >1 %.3f %% | "
+                "q05/50/95 %+.3f %+.3f %+.3f | >0.25 by third %.2f %.2f %.2f %% | pothole %lld px MAE %.4f",
+                static_cast<long long>(road), 100 * RoadDensity(), RoadEpe(), RoadSignedMean(),
+                100 * RoadShareOver(0.25), 100 * RoadShareOver(0.5), 100 * RoadShareOver(1), RoadQuantile(0.05),
+                RoadQuantile(0.5), RoadQuantile(0.95), share(third_over_025[0], third_valid[0]),
+                share(third_over_025[1], third_valid[1]), share(third_over_025[2], third_valid[2]),
+                static_cast<long long>(pothole), PotholeMae());
+  return buf;
+}
+
+RoadErrorStats MeasureRoadErrors(const StereoPairWithTruth& p, const cv::Mat& disparity, const cv::Mat& valid) {
+  RoadErrorStats s;
+  const int W = p.gt.cols;
+  for (int v = 0; v < p.gt.rows; ++v) {
+    const float* g = p.gt.ptr<float>(v);
+    const float* d = disparity.ptr<float>(v);
+    const uint8_t* m = valid.ptr<uint8_t>(v);
+    const uint8_t* road = p.road.empty() ? nullptr : p.road.ptr<uint8_t>(v);
+    const uint8_t* hole = p.pothole.empty() ? nullptr : p.pothole.ptr<uint8_t>(v);
+    for (int u = 0; u < W; ++u) {
+      if (!(g[u] > 0)) continue;
+      const double e = double(d[u]) - double(g[u]);
+      if (hole && hole[u]) {
+        ++s.pothole;
+        if (m[u]) ++s.pothole_valid, s.pothole_abs_sum += std::abs(e);
+      }
+      if (!road || !road[u]) continue;
+      ++s.road;
+      if (!m[u]) continue;
+      const double a = std::abs(e);
+      const int third = std::min(2, 3 * u / W);
+      ++s.road_valid, ++s.third_valid[third];
+      s.road_abs_sum += a;
+      if (a > 0.25) ++s.road_over_025, ++s.third_over_025[third];
+      if (a > 0.5) ++s.road_over_05;
+      if (a > 1) ++s.road_over_1;
+      if (a <= 3) s.road_signed_sum += e, ++s.road_within_3;
+      const int bin = e < -1 ? 0 : e >= 1 ? RoadErrorStats::kBins + 1 : 1 + std::min(RoadErrorStats::kBins - 1, static_cast<int>((e + 1) / 0.05));
+      ++s.histogram[bin];
+    }
+  }
+  return s;
 }
 
 }  // namespace rs

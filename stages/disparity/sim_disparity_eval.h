@@ -13,7 +13,10 @@
 //            damage (truth mask 0);
 //   pothole  visible and in the truth mask of a damage whose type is "pothole" (damages.geojson).
 
+#include <array>
+#include <cstdint>
 #include <filesystem>
+#include <string>
 #include <vector>
 
 #include "stages/disparity/disparity_eval.h"
@@ -41,5 +44,41 @@ cv::Mat VisibleInRightView(const cv::Mat& gt_left, double tolerance_px = 0.5);
 /// Throws InputError naming the file when something is missing or malformed.
 std::vector<StereoPairWithTruth> LoadSimulatedSurvey(const std::filesystem::path& dir,
                                                      const SimulatedPairOptions& options = {});
+
+/// Signed disparity error distribution (estimate - truth) over a simulated pair's road and pothole
+/// regions. D1 (3 px) hides what matters downstream: at 6 m a 0.3 px error is already ~4 cm of
+/// depth, so the shares of road pixels beyond 0.25 and 0.5 px are what the damage stage feels.
+/// Additive over pairs (Add); ratios from the accessors.
+struct RoadErrorStats {
+  static constexpr int kBins = 40;             ///< signed-error histogram: 0.05 px bins over [-1, 1)
+  int64_t road = 0, road_valid = 0;            ///< road pixels with truth; with a valid estimate
+  int64_t road_over_025 = 0, road_over_05 = 0, road_over_1 = 0;  ///< valid road pixels with |err| > 0.25, 0.5, 1 px
+  double road_abs_sum = 0, road_signed_sum = 0;  ///< sums of |err| and err over valid road pixels with |err| <= 3 px
+  int64_t road_within_3 = 0;                   ///< valid road pixels with |err| <= 3 px (the signed mean's count)
+  /// Valid road pixels by signed error: [0] below -1 px, [1 + b] in [-1 + 0.05 b, -0.95 + 0.05 b),
+  /// [kBins + 1] at or above 1 px.
+  std::array<int64_t, kBins + 2> histogram{};
+  /// Valid road pixels with |err| > 0.25 px and all valid road pixels in the left, middle and
+  /// right third of the image columns (camber shows in the outer thirds).
+  std::array<int64_t, 3> third_over_025{}, third_valid{};
+  int64_t pothole = 0, pothole_valid = 0;      ///< pothole pixels with truth; with a valid estimate
+  double pothole_abs_sum = 0;                  ///< sum of |err| over valid pothole pixels
+
+  void Add(const RoadErrorStats& other);
+  double RoadDensity() const { return road ? double(road_valid) / double(road) : 0; }
+  double RoadEpe() const;          ///< mean |err| over all valid road pixels, px
+  double RoadSignedMean() const;   ///< mean err over valid road pixels with |err| <= 3 px, px
+  double RoadShareOver(double threshold_px) const;  ///< 0.25, 0.5 or 1: share of valid road pixels
+  double PotholeMae() const { return pothole_valid ? pothole_abs_sum / double(pothole_valid) : 0; }
+  /// Signed-error quantile q in (0, 1) from the histogram (linear inside a bin; clamped to [-1, 1]), px.
+  double RoadQuantile(double q) const;
+  /// One line: density, EPE, signed mean, shares > 0.25 / 0.5 / 1 px, signed 5/50/95 % quantiles,
+  /// share > 0.25 px per column third, pothole MAE.
+  std::string Format() const;
+};
+
+/// Error statistics of `disparity` (CV_32F, valid where `valid` != 0) against p.gt over p.road and
+/// p.pothole.
+RoadErrorStats MeasureRoadErrors(const StereoPairWithTruth& p, const cv::Mat& disparity, const cv::Mat& valid);
 
 }  // namespace rs

@@ -41,7 +41,65 @@ double ObservationChi2(const StereoCamera& cam, const Keyframe& kf, int feat, co
   return e2 * pyramid.inv_sigma2[kp.octave];
 }
 
+// ceres::CostFunction over EvaluateReprojection.
+class ReprojectionCost : public ceres::SizedCostFunction<3, 6, 3> {
+ public:
+  explicit ReprojectionCost(const ReprojectionResidual& r) : r_(r) {}
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    EvaluateReprojection(r_, parameters[0], parameters[1], residuals, jacobians ? jacobians[0] : nullptr,
+                         jacobians ? jacobians[1] : nullptr);
+    return true;
+  }
+
+ private:
+  ReprojectionResidual r_;
+};
+
+Eigen::Matrix3d Skew(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d m;
+  m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
+  return m;
+}
+
 }  // namespace
+
+void EvaluateReprojection(const ReprojectionResidual& r, const double* pose, const double* point, double* residual,
+                          double* J_pose, double* J_point) {
+  const Eigen::Map<const Eigen::Vector3d> w(pose), t(pose + 3), x(point);
+  const double theta2 = w.squaredNorm();
+  const Eigen::Matrix3d W = Skew(w);
+  Eigen::Matrix3d R, Jl;  // rotation and its left Jacobian: d(R(w) x)/dw = -[R x]_x Jl(w)
+  if (theta2 > 1e-16) {
+    const double theta = std::sqrt(theta2);
+    R = Eigen::AngleAxisd(theta, w / theta).toRotationMatrix();
+    Jl = Eigen::Matrix3d::Identity() + (1 - std::cos(theta)) / theta2 * W + (theta - std::sin(theta)) / (theta2 * theta) * W * W;
+  } else {  // first order, as ceres::AngleAxisRotatePoint near zero
+    R = Eigen::Matrix3d::Identity() + W;
+    Jl = Eigen::Matrix3d::Identity() + 0.5 * W;
+  }
+  const Eigen::Vector3d Rx = R * x, pc = Rx + t;
+  const double iz = 1.0 / pc.z(), s = r.sqrt_info;
+  const bool stereo = r.u_right >= 0;
+  residual[0] = (r.fx * pc.x() * iz + r.cx - r.u) * s;
+  residual[1] = (r.fy * pc.y() * iz + r.cy - r.v) * s;
+  residual[2] = stereo ? (r.fx * (pc.x() - r.baseline_m) * iz + r.cx - r.u_right) * s : 0.0;
+  if (!J_pose && !J_point) return;
+  Eigen::Matrix3d D;  // d(residual)/d(pc)
+  D << r.fx * iz, 0, -r.fx * pc.x() * iz * iz,  //
+      0, r.fy * iz, -r.fy * pc.y() * iz * iz,   //
+      r.fx * iz, 0, -r.fx * (pc.x() - r.baseline_m) * iz * iz;
+  if (!stereo) D.row(2).setZero();
+  D *= s;
+  if (J_pose) {
+    Eigen::Map<Eigen::Matrix<double, 3, 6, Eigen::RowMajor>> J(J_pose);
+    J.leftCols<3>() = -D * Skew(Rx) * Jl;
+    J.rightCols<3>() = D;
+  }
+  if (J_point) {
+    Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> J(J_point);
+    J = D * R;
+  }
+}
 
 BundleAdjustSummary BundleAdjust(SlamMap* map, const std::vector<int>& free_kfs, const StereoCamera& cam,
                                  const ScalePyramid& pyramid, int iterations, bool remove_outliers,
@@ -84,7 +142,7 @@ BundleAdjustSummary BundleAdjust(SlamMap* map, const std::vector<int>& free_kfs,
         const cv::KeyPoint& kp = kf.features.keypoints[f];
         ReprojectionResidual r{kp.pt.x, kp.pt.y, kf.features.u_right[f], cam.fx, cam.fy, cam.cx, cam.cy,
                                cam.baseline_m, 1.0 / pyramid.scale[kp.octave]};
-        auto* cost = new ceres::AutoDiffCostFunction<ReprojectionResidual, 3, 6, 3>(new ReprojectionResidual(r));
+        auto* cost = new ReprojectionCost(r);
         (r.u_right >= 0 ? used_stereo : used_mono) = true;
         problem.AddResidualBlock(cost, r.u_right >= 0 ? ls : lm,
                                  poses[k].data(), pts[p].data());
@@ -94,7 +152,9 @@ BundleAdjustSummary BundleAdjust(SlamMap* map, const std::vector<int>& free_kfs,
     for (int k : fixed_set)
       if (problem.HasParameterBlock(poses[k].data())) problem.SetParameterBlockConstant(poses[k].data());
     ceres::Solver::Options options;
-    options.linear_solver_type = ceres::SPARSE_SCHUR;
+    // A local window has a handful of keyframes: their reduced camera system is small and dense, where
+    // a dense Cholesky beats the sparse one's symbolic overhead.
+    options.linear_solver_type = poses.size() <= 40 ? ceres::DENSE_SCHUR : ceres::SPARSE_SCHUR;
     options.max_num_iterations = max_iterations;
     options.num_threads = 1;  // deterministic
     options.minimizer_progress_to_stdout = false;

@@ -12,6 +12,17 @@
 #include "stages/simulate/simulate.h"
 #include "stages/slam/slam_datasets.h"
 
+namespace {
+
+// The disparity offset estimated from the final map (stereo_slam.h SlamStatistics).
+std::string SelfCalibration(const rs::SlamRunReport& r) {
+  const rs::SlamStatistics& s = r.result.stats;
+  return fmt::format("  disparity offset implied by the keyframes' motion (diagnostic, not applied): {:+.3f} px +- {:.3f} ({} samples)",
+                     s.disparity_offset_px, s.disparity_offset_sigma_px, s.disparity_offset_samples);
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
   namespace fs = std::filesystem;
   std::string data = std::getenv("ROADSURVEY_DATA") ? std::getenv("ROADSURVEY_DATA") : "/work/shared/data";
@@ -49,6 +60,7 @@ int main(int argc, char** argv) {
     if (const char* f = std::getenv("SLAM_BA_KF")) opt.local_ba_keyframes = std::atoi(f);
     if (const char* f = std::getenv("SLAM_TRIANGULATION")) opt.triangulation_neighbours = std::atoi(f);
     if (const char* f = std::getenv("SLAM_CLOSE_BASELINES")) opt.close_depth_baselines = std::atof(f);
+    if (const char* f = std::getenv("SLAM_MIN_CLOSE_POINTS")) opt.min_close_points = std::atoi(f);
     if (const char* f = std::getenv("SLAM_DISPARITY_OFFSET")) opt.disparity_offset_px = std::atof(f);
     if (!only_sim) {
       // KITTI's rectified pairs measure disparities a fraction of a pixel short of the metric truth
@@ -58,7 +70,7 @@ int main(int argc, char** argv) {
       const fs::path kitti = fs::path(data) / "kitti_vo_clips/KITTI_sequence_1";
       if (fs::exists(kitti)) {
         const rs::SlamRunReport r = rs::RunKittiOdometry(kitti, opt);
-        std::cout << r.Summary("KITTI 06 clip (options as given)") << "\n";
+        std::cout << r.Summary("KITTI 06 clip (options as given)") << "\n" << SelfCalibration(r) << "\n";
         if (fs::exists(raw)) {
           rs::SlamOptions o = opt;
           o.features = 2000;
@@ -68,10 +80,11 @@ int main(int argc, char** argv) {
                                    "{:.3f} px, median depth ratio stereo/LiDAR {:.4f}\n",
                                    o.features, c.samples, c.median_deficit_px, c.median_depth_ratio);
           o.disparity_offset_px += c.median_deficit_px;
-          std::cout << rs::RunKittiOdometry(kitti, o).Summary(fmt::format(
+          const rs::SlamRunReport a = rs::RunKittiOdometry(kitti, o);
+          std::cout << a.Summary(fmt::format(
                            "KITTI 06 clip, accurate (2000 features, triangulation 10, disparity_offset_px {:.3f})",
                            o.disparity_offset_px))
-                    << "\n";
+                    << "\n" << SelfCalibration(a) << "\n";
         }
         if (std::getenv("SLAM_BENCH_VERBOSE"))
           for (const auto& f : r.frames)
@@ -81,10 +94,11 @@ int main(int argc, char** argv) {
                       << " rot " << Eigen::AngleAxisd(r.result.frames.poses[f.index].T_world_frame.linear()).angle() * 57.3 << "\n";
       }
       const fs::path euroc = fs::path(data) / "euroc_v101_micro";
-      if (fs::exists(euroc))
-        std::cout << rs::RunEuroc(euroc / "tests/data/MicroEurocDataset", euroc / "open_vins_gt/ov_data/euroc_mav/V1_01_easy.txt", opt)
-                         .Summary("EuRoC V1_01 micro")
-                  << "\n";
+      if (fs::exists(euroc)) {
+        const rs::SlamRunReport e =
+            rs::RunEuroc(euroc / "tests/data/MicroEurocDataset", euroc / "open_vins_gt/ov_data/euroc_mav/V1_01_easy.txt", opt);
+        std::cout << e.Summary("EuRoC V1_01 micro") << "\n" << SelfCalibration(e) << "\n";
+      }
     }
     if (sim) {
       if (!fs::exists(sim_dir / "truth" / "trajectory.tum")) {
@@ -99,7 +113,8 @@ int main(int argc, char** argv) {
       }
       for (bool priors : {false, true}) {
         const rs::SlamRunReport r = rs::RunSimulated(sim_dir, opt, priors);
-        std::cout << r.Summary("simulated " + sim_preset + (priors ? " (priors 1 m)" : " (no priors)")) << "\n";
+        std::cout << r.Summary("simulated " + sim_preset + (priors ? " (priors 1 m)" : " (no priors)")) << "\n"
+                  << SelfCalibration(r) << "\n";
         if (std::getenv("SLAM_BENCH_VERBOSE"))
           for (size_t i = 0; i < r.rot_rel_first_err.size(); ++i)
             std::cout << fmt::format("  pair {} true rotation since first {:.3f} deg, error (rotation vector, deg) {:+.3f} {:+.3f} {:+.3f}\n",

@@ -20,6 +20,7 @@ void SlamOptions::Check() const {
   Require(fast_threshold >= 1 && fast_threshold <= 100, "fast_threshold", fast_threshold, "1 <= fast_threshold <= 100");
   Require(grid_cell_px >= 8, "grid_cell_px", grid_cell_px, "grid_cell_px >= 8");
   Require(close_depth_baselines > 1, "close_depth_baselines", close_depth_baselines, "close_depth_baselines > 1");
+  Require(min_close_points >= 0, "min_close_points", min_close_points, "min_close_points >= 0");
   Require(std::abs(disparity_offset_px) <= 5, "disparity_offset_px", disparity_offset_px, "|disparity_offset_px| <= 5");
   Require(stereo_max_hamming > 0 && stereo_max_hamming <= 256, "stereo_max_hamming", stereo_max_hamming,
           "0 < stereo_max_hamming <= 256");

@@ -13,6 +13,7 @@ struct SlamOptions {
   int fast_threshold = 12;          ///< FAST threshold, grey levels (low: grid spreading ranks by Harris score)
   int grid_cell_px = 40;            ///< cell size of the grid that spreads features over the image, px
   double close_depth_baselines = 40;  ///< a stereo point is "close" (reliable depth) below this many baselines
+  int min_close_points = 600;       ///< a frame with < 100 close stereo points (a nadir view from altitude): the nearest this many count as close
   int stereo_max_hamming = 75;      ///< largest descriptor distance of a left-right stereo match
   double disparity_offset_px = 0;   ///< added to every measured disparity: a residual rectification error (right principal point), px
   // --- tracking
@@ -38,7 +39,7 @@ struct SlamOptions {
   int global_ba_iterations = 20;    ///< Ceres iterations of the global bundle adjustment
   // --- determinism / threads
   unsigned ransac_seed = 1;         ///< seed of every RANSAC: same input and seed give the same result
-  bool parallel = true;             ///< extract left and right features concurrently (result unchanged)
+  bool parallel = true;             ///< extract features on two threads (left, right) while the previous frame is tracked (SlamPipeline; result unchanged)
 
   /// Throws rs::OptionError naming the violated rule ("slam.features = 10 violates features >= 100").
   void Check() const;

@@ -10,6 +10,7 @@
 #include "formats/stereo/calibration_yaml.h"
 #include "formats/stereo/image_io.h"
 #include "formats/trajectory/tum_trajectory.h"
+#include "stages/slam/slam_pipeline.h"
 #include "stages/slam/stereo_slam.h"
 #include "survey/atomic_file.h"
 
@@ -28,6 +29,9 @@ const OptionTable<SlamOptions>& SlamTable() {
           .Add("close_depth_baselines", &SlamOptions::close_depth_baselines,
                "a stereo point is close (reliable depth) below this many baselines")
           .Above(0)
+          .Add("min_close_points", &SlamOptions::min_close_points,
+               "when fewer than 100 stereo points are close (a nadir view from altitude), the nearest this many count as close")
+          .Min(0)
           .Add("stereo_max_hamming", &SlamOptions::stereo_max_hamming, "largest left-right descriptor distance")
           .Min(0)
           .Max(256)
@@ -76,7 +80,8 @@ const OptionTable<SlamOptions>& SlamTable() {
           .Add("global_ba_iterations", &SlamOptions::global_ba_iterations, "solver iterations of the global BA")
           .Min(0)
           .Add("ransac_seed", &SlamOptions::ransac_seed, "seed of every RANSAC (same input and seed, same result)")
-          .Add("parallel", &SlamOptions::parallel, "extract left and right features concurrently (result unchanged)");
+          .Add("parallel", &SlamOptions::parallel,
+               "extract features on two threads while the previous frame is tracked (result unchanged)");
   return t;
 }
 
@@ -152,7 +157,7 @@ const OptionTable<SlamStageOptions>& SlamStageOptions::Table() {
 StageInfo SlamStage::Info() {
   StageInfo info;
   info.name = "slam";
-  info.version = 1;
+  info.version = 2;  // 2: frame_status.csv gained the position column; lost frames extrapolated / GNSS-seeded
   info.doc = "Stereo visual SLAM (ORB features, stereo depth, motion-only and local bundle adjustment, loop "
              "closing, global BA) over the frames in time order, GNSS positions as priors.";
   info.inputs = {"frames", "calibration", "priors"};
@@ -176,14 +181,27 @@ void SlamStage::Run(StageContext& ctx, const SlamStageOptions& o) const {
   StereoSlam slam(calib, o.slam);
   ctx.progress().Start("slam", static_cast<int64_t>(frames.size()));
   std::ofstream status(ctx.out_dir() / "frame_status.csv");
-  status << "frame_id,t_ns,status,segment,features,stereo_features,inliers,keyframe\n";
+  // position: how the frame's pose was found - "visual" (tracked or relocalised), "gnss" (lost; placed
+  // mostly by the flight log's displacement) or "motion-model" (lost; constant-velocity prediction).
+  status << "frame_id,t_ns,status,position,segment,features,stereo_features,inliers,keyframe\n";
   std::map<std::string, int> by_status;
-  for (size_t i = 0; i < frames.size(); ++i) {
-    const auto& f = frames[i];
+  // Frame i+1's features are extracted while frame i is tracked (o.slam.parallel; same results):
+  // Push returns the previous frame's result, Flush the last one.
+  SlamPipeline pipeline(&slam, o.slam.parallel);
+  auto next = [&](size_t i) -> std::optional<FrameResult> {
+    if (i < frames.size()) return pipeline.Push(frames[i].t_ns, LoadGray8(frames[i].left), LoadGray8(frames[i].right), priors[i]);
+    return pipeline.Flush();
+  };
+  const size_t lag = o.slam.parallel ? 1 : 0;
+  for (size_t k = 0; k < frames.size() + lag; ++k) {
     // Images are read one frame at a time: memory stays flat however long the survey.
-    const FrameResult r = slam.Track(f.t_ns, LoadGray8(f.left), LoadGray8(f.right), priors[i]);
-    status << fmt::format("{},{},{},{},{},{},{},{}\n", f.id.value, f.t_ns, ToString(r.status), r.segment, r.features,
-                          r.stereo_features, r.inliers, r.keyframe ? 1 : 0);
+    const std::optional<FrameResult> tracked = next(k);
+    if (!tracked) continue;
+    const FrameResult& r = *tracked;
+    const auto& f = frames[k - lag];
+    const char* position = r.status != FrameStatus::kPriorOnly ? "visual" : r.gnss_weight >= 0.5 ? "gnss" : "motion-model";
+    status << fmt::format("{},{},{},{},{},{},{},{},{}\n", f.id.value, f.t_ns, ToString(r.status), position, r.segment,
+                          r.features, r.stereo_features, r.inliers, r.keyframe ? 1 : 0);
     ++by_status[ToString(r.status)];
     ctx.progress().Advance();
   }
@@ -199,14 +217,16 @@ void SlamStage::Run(StageContext& ctx, const SlamStageOptions& o) const {
   for (const auto& [k, v] : by_status) ctx.Count("frames_" + k, v);
   ctx.Count("keyframes", s.keyframes);
   ctx.Count("map_points", s.map_points);
+  ctx.Count("frames_gnss_positioned", s.gnss_positioned);
   ctx.Count("segments", s.segments);
   ctx.Count("loops_closed", s.loops_closed);
   ctx.Count("loop_candidates", s.loop_candidates);
   ctx.Time("track", s.track_s);
   ctx.Time("finish", s.finish_s);
   if (s.prior_only > 0)
-    ctx.Warn(fmt::format("{} frame(s) only positioned by prediction/prior (tracking lost): see frame_status.csv",
-                         s.prior_only));
+    ctx.Warn(fmt::format("{} frame(s) not placed visually (tracking lost), {} of them mostly by the GNSS prior: see "
+                         "frame_status.csv",
+                         s.prior_only, s.gnss_positioned));
   WriteJsonAtomic(ctx.out_dir() / "slam.json", {{"report", s.BriefReport()}, {"statuses", by_status}});
 }
 

@@ -146,16 +146,25 @@ int PatchSad(const cv::Mat& left, const cv::Mat& right, int xl, int xr, int y, i
 
 StereoFeatures ExtractStereoFeatures(const cv::Mat& left, const cv::Mat& right, const StereoCamera& camera,
                                      const SlamOptions& options, const ScalePyramid& pyramid) {
-  StereoFeatures f;
-  std::vector<cv::KeyPoint> right_kps;
-  cv::Mat right_desc;
+  OrbFeatures l, r;
   if (options.parallel) {
-    tbb::parallel_invoke([&] { ExtractOrb(left, options, &f.keypoints, &f.descriptors); },
-                         [&] { ExtractOrb(right, options, &right_kps, &right_desc); });
+    tbb::parallel_invoke([&] { ExtractOrb(left, options, &l.keypoints, &l.descriptors); },
+                         [&] { ExtractOrb(right, options, &r.keypoints, &r.descriptors); });
   } else {
-    ExtractOrb(left, options, &f.keypoints, &f.descriptors);
-    ExtractOrb(right, options, &right_kps, &right_desc);
+    ExtractOrb(left, options, &l.keypoints, &l.descriptors);
+    ExtractOrb(right, options, &r.keypoints, &r.descriptors);
   }
+  return MatchStereo(left, right, std::move(l), r, camera, options, pyramid);
+}
+
+StereoFeatures MatchStereo(const cv::Mat& left, const cv::Mat& right, OrbFeatures left_features,
+                           const OrbFeatures& right_features, const StereoCamera& camera, const SlamOptions& options,
+                           const ScalePyramid& pyramid) {
+  StereoFeatures f;
+  f.keypoints = std::move(left_features.keypoints);
+  f.descriptors = left_features.descriptors;
+  const std::vector<cv::KeyPoint>& right_kps = right_features.keypoints;
+  const cv::Mat& right_desc = right_features.descriptors;
   const size_t n = f.keypoints.size();
   f.u_right.assign(n, -1.f);
   f.depth_m.assign(n, -1.f);

@@ -54,6 +54,18 @@ struct StereoFeatures {
 void ExtractOrb(const cv::Mat& gray, const SlamOptions& options, std::vector<cv::KeyPoint>* keypoints,
                 cv::Mat* descriptors);
 
+/// ORB keypoints (level-0 coordinates) and descriptors of one image, as ExtractOrb gives them.
+struct OrbFeatures {
+  std::vector<cv::KeyPoint> keypoints;
+  cv::Mat descriptors;
+};
+
+/// Stereo matching of a rectified pair's ORB features (the second half of ExtractStereoFeatures):
+/// row-band descriptor match, SAD + parabola sub-pixel disparity, depth.
+StereoFeatures MatchStereo(const cv::Mat& left, const cv::Mat& right, OrbFeatures left_features,
+                           const OrbFeatures& right_features, const StereoCamera& camera, const SlamOptions& options,
+                           const ScalePyramid& pyramid);
+
 /// Features of a rectified pair with stereo depths. Left and right extraction run concurrently when
 /// options.parallel (the result does not depend on it).
 StereoFeatures ExtractStereoFeatures(const cv::Mat& left, const cv::Mat& right, const StereoCamera& camera,

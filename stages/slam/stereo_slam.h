@@ -27,7 +27,7 @@ namespace rs {
 enum class FrameStatus {
   kTracked,      ///< tracked against the previous frame and the local map
   kRelocalised,  ///< motion-model tracking failed; pose found by matching keyframes (PnP RANSAC)
-  kPriorOnly,    ///< tracking and relocalisation failed: pose predicted (prior / motion model), new map segment
+  kPriorOnly,    ///< tracking and relocalisation failed: pose predicted (motion model, seeded by the GNSS prior), new map segment
 };
 /// "tracked", "relocalised", "prior-only".
 const char* ToString(FrameStatus status);
@@ -43,6 +43,8 @@ struct FrameResult {
   int inliers = 0;               ///< map points matched after local-map tracking
   bool keyframe = false;         ///< a keyframe was made from this frame
   int segment = 0;               ///< map segment the frame belongs to
+  /// prior-only frames: weight of the flight log's position in the pose (0: motion model alone, 1: GNSS alone)
+  double gnss_weight = 0;
 };
 
 /// A closed loop.
@@ -56,9 +58,14 @@ struct LoopClosure {
 /// Counters and timings of a run.
 struct SlamStatistics {
   int frames = 0, tracked = 0, relocalised = 0, prior_only = 0;
+  int gnss_positioned = 0;     ///< prior-only frames placed mostly (weight >= 0.5) by the flight log
   int keyframes = 0, map_points = 0, segments = 1;
   int loop_candidates = 0, loops_rejected = 0, loops_closed = 0;
   int vocabulary_words = 0;
+  /// Diagnostic, not applied: disparity offset implied by the keyframes' own motion (disparity_calibration.h),
+  /// its standard error (px) and the samples used; estimated in Finish before loop closing
+  double disparity_offset_px = 0, disparity_offset_sigma_px = 0;
+  int disparity_offset_samples = 0;
   double track_s = 0;          ///< wall time in Track (front end + tracking + local mapping)
   double local_mapping_s = 0;  ///< of which local mapping (culling, fusion, local BA)
   double finish_s = 0;         ///< wall time of Finish (loop closing + global BA)
@@ -91,6 +98,15 @@ class StereoSlam {
   /// tracking failure: the frame is then relocalised or predicted (prior-only). Throws
   /// std::invalid_argument for images of the wrong size/type or times that do not increase.
   FrameResult Track(int64_t t_ns, const cv::Mat& left, const cv::Mat& right, const std::optional<PosePrior>& prior);
+
+  /// Tracks a pair whose features were computed beforehand (ExtractStereoFeatures / MatchStereo with
+  /// camera(), options() and pyramid()), e.g. on other threads while the previous frame was tracked
+  /// (SlamPipeline). Same result as the image overload. Throws std::invalid_argument when times do not increase.
+  FrameResult Track(int64_t t_ns, StereoFeatures features, const std::optional<PosePrior>& prior);
+
+  const StereoCamera& camera() const;   ///< the rectified camera the features must be computed for
+  const SlamOptions& options() const;   ///< the options given to the constructor
+  const ScalePyramid& pyramid() const;  ///< scale pyramid of the options
 
   /// Loop closing, global BA; returns trajectories, map and statistics. Call once.
   SlamResult Finish();

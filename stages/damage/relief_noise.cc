@@ -1,0 +1,74 @@
+#include "stages/damage/relief_noise.h"
+
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <vector>
+
+namespace rs {
+
+cv::Mat LocalReliefNoise(const cv::Mat& value, const cv::Mat& valid, double level, int cell, double floor_sigma,
+                         double max_ratio) {
+  if (value.type() != CV_32FC1 || valid.type() != CV_8UC1 || value.size() != valid.size())
+    throw std::invalid_argument("LocalReliefNoise: value must be CV_32F with a CV_8U mask of the same size");
+  if (cell < 4 || !(floor_sigma > 0) || !(max_ratio > 0))
+    throw std::invalid_argument("LocalReliefNoise: cell_px >= 4, floor_sigma > 0 and max_ratio > 0 needed");
+  const int gw = (value.cols + cell - 1) / cell, gh = (value.rows + cell - 1) / cell;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  cv::Mat grid(gh, gw, CV_32F, cv::Scalar(nan));
+  std::vector<float> up;
+  for (int gy = 0; gy < gh; ++gy)
+    for (int gx = 0; gx < gw; ++gx) {
+      up.clear();
+      int seen = 0;
+      // Every third pixel: a cell of 96 px still gives ~500 samples above the level.
+      for (int v = gy * cell; v < std::min((gy + 1) * cell, value.rows); v += 3) {
+        const float* x = value.ptr<float>(v);
+        const uchar* m = valid.ptr<uchar>(v);
+        for (int u = gx * cell; u < std::min((gx + 1) * cell, value.cols); u += 3) {
+          if (!m[u]) continue;
+          ++seen;
+          // Far above the road is structure, not noise (an obstacle's smoothed fringe, a bent model).
+          if (x[u] > level && x[u] < level + max_ratio * floor_sigma) up.push_back(static_cast<float>(x[u] - level));
+        }
+      }
+      // Road has about half its samples above the level; a cell with far fewer is mostly damage,
+      // whose surroundings the local road correction bends: its neighbours' noise is used instead.
+      if (up.size() < 20 || up.size() < 0.35 * seen) continue;
+      std::nth_element(up.begin(), up.begin() + up.size() / 2, up.end());
+      grid.at<float>(gy, gx) = static_cast<float>(up[up.size() / 2] / 0.6745);
+    }
+  // Cells without road (obstacles, large damage, no disparity) take their neighbours' noise.
+  for (int pass = 0; pass < gw + gh; ++pass) {
+    cv::Mat next = grid.clone();
+    bool missing = false, any = false;
+    for (int y = 0; y < gh; ++y)
+      for (int x = 0; x < gw; ++x) {
+        if (std::isfinite(grid.at<float>(y, x))) { any = true; continue; }
+        double sum = 0;
+        int n = 0;
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx) {
+            const int yy = y + dy, xx = x + dx;
+            if (yy < 0 || xx < 0 || yy >= gh || xx >= gw) continue;
+            const float q = grid.at<float>(yy, xx);
+            if (std::isfinite(q)) sum += q, ++n;
+          }
+        if (n) next.at<float>(y, x) = static_cast<float>(sum / n);
+        else missing = true;
+      }
+    grid = next;
+    if (!missing || !any) break;
+  }
+  cv::patchNaNs(grid, floor_sigma);
+  cv::blur(grid, grid, {3, 3}, {-1, -1}, cv::BORDER_REPLICATE);
+  cv::max(grid, floor_sigma, grid);  // before interpolation: a convex combination stays above the floor
+  cv::Mat full;
+  cv::resize(grid, full, {gw * cell, gh * cell}, 0, 0, cv::INTER_LINEAR);
+  return full(cv::Rect({}, value.size()));  // a view: no copy
+}
+
+}  // namespace rs

@@ -1,0 +1,26 @@
+#pragma once
+// Local noise of a relief image. Stereo errors are not stationary: where the disparity
+// stage's road model leaves the road off its integer residual (camber, the outer thirds of a
+// nadir frame), SGM's pixel locking adds ±0.2 px ripples, and paint edges add more, while the
+// rest of the frame is quiet. One global σ either misses shallow damage in the quiet part or
+// reports the ripples as damage; a per-region σ tests every candidate against the noise
+// where it lies.
+
+#include <opencv2/core.hpp>
+
+#include <limits>
+
+namespace rs {
+
+/// Per-pixel robust noise σ of `value` (CV_32F) over `valid` (CV_8U), in the units of `value`:
+/// per cell of `cell_px`, the median of (x − level) over the valid x above `level` (and below
+/// level + max_ratio·floor_sigma: farther above is structure, e.g. an obstacle's fringe), / 0.6745
+/// (damage only fills the lower tail, so the upper half measures the road's own spread);
+/// cells with fewer than 20 such samples, or fewer than 35 % of their valid samples above the
+/// level (mostly damage), take their neighbours' value; 3×3 smoothed over the
+/// cells, bilinearly interpolated, and never below `floor_sigma`.
+/// Throws std::invalid_argument on bad types or sizes, cell_px < 4, floor_sigma ≤ 0 or max_ratio ≤ 0.
+cv::Mat LocalReliefNoise(const cv::Mat& value, const cv::Mat& valid, double level, int cell_px, double floor_sigma,
+                         double max_ratio = std::numeric_limits<double>::infinity());
+
+}  // namespace rs

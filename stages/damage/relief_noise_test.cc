@@ -1,0 +1,50 @@
+#include "stages/damage/relief_noise.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <stdexcept>
+
+namespace rs {
+namespace {
+
+// Road at level 30 with σ = 0.1 on the left half and 0.3 on the right, a 0.5-deep bowl of radius
+// 60 px in the right half and an invalid strip: the map must follow each half's noise, ignore
+// the bowl (it only fills the lower tail) and fill the strip from its neighbours.
+TEST(ReliefNoise, Nominal) {
+  cv::Mat value(480, 768, CV_32F), valid(value.size(), CV_8U, cv::Scalar(255));
+  std::mt19937 rng(3);
+  std::normal_distribution<float> n(0.f, 1.f);
+  for (int v = 0; v < value.rows; ++v)
+    for (int u = 0; u < value.cols; ++u) {
+      const double sigma = u < 384 ? 0.1 : 0.3;
+      const double bowl = std::hypot(u - 580, v - 240) < 60 ? 0.5 : 0.0;
+      value.at<float>(v, u) = static_cast<float>(30.0 - bowl + sigma * n(rng));
+    }
+  valid(cv::Rect(0, 0, 768, 100)).setTo(0);
+  const cv::Mat s = LocalReliefNoise(value, valid, 30.0, 96, 0.05);
+  ASSERT_EQ(s.type(), CV_32FC1);
+  ASSERT_EQ(s.size(), value.size());
+  EXPECT_NEAR(s.at<float>(300, 100), 0.1, 0.01);
+  EXPECT_NEAR(s.at<float>(300, 700), 0.3, 0.03);
+  EXPECT_NEAR(s.at<float>(240, 580), 0.3, 0.03);  // the bowl's centre: road noise, not its depth
+  EXPECT_NEAR(s.at<float>(20, 100), 0.1, 0.01);   // no valid pixel: from the cells below
+  // Floor.
+  const cv::Mat f = LocalReliefNoise(value, valid, 30.0, 96, 0.2);
+  EXPECT_NEAR(f.at<float>(300, 100), 0.2, 1e-6);
+  EXPECT_NEAR(f.at<float>(300, 700), 0.3, 0.03);
+}
+
+TEST(ReliefNoise, BadInput) {
+  const cv::Mat value(64, 64, CV_32F, cv::Scalar(1)), valid(64, 64, CV_8U, cv::Scalar(255));
+  EXPECT_THROW(LocalReliefNoise(value, valid, 0, 2, 0.1), std::invalid_argument);
+  EXPECT_THROW(LocalReliefNoise(value, valid, 0, 16, 0), std::invalid_argument);
+  EXPECT_THROW(LocalReliefNoise(cv::Mat(64, 64, CV_8U), valid, 0, 16, 0.1), std::invalid_argument);
+  EXPECT_THROW(LocalReliefNoise(value, cv::Mat(32, 32, CV_8U), 0, 16, 0.1), std::invalid_argument);
+  // No sample above the level anywhere: the floor.
+  EXPECT_FLOAT_EQ(LocalReliefNoise(value, valid, 2.0, 16, 0.1).at<float>(10, 10), 0.1f);
+}
+
+}  // namespace
+}  // namespace rs
