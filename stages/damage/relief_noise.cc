@@ -8,6 +8,8 @@
 #include <stdexcept>
 #include <vector>
 
+#include "stages/damage/grid_fill.h"
+
 namespace rs {
 
 cv::Mat LocalReliefNoise(const cv::Mat& value, const cv::Mat& valid, double level, int cell, double floor_sigma,
@@ -42,27 +44,7 @@ cv::Mat LocalReliefNoise(const cv::Mat& value, const cv::Mat& valid, double leve
       grid.at<float>(gy, gx) = static_cast<float>(up[up.size() / 2] / 0.6745);
     }
   // Cells without road (obstacles, large damage, no disparity) take their neighbours' noise.
-  for (int pass = 0; pass < gw + gh; ++pass) {
-    cv::Mat next = grid.clone();
-    bool missing = false, any = false;
-    for (int y = 0; y < gh; ++y)
-      for (int x = 0; x < gw; ++x) {
-        if (std::isfinite(grid.at<float>(y, x))) { any = true; continue; }
-        double sum = 0;
-        int n = 0;
-        for (int dy = -1; dy <= 1; ++dy)
-          for (int dx = -1; dx <= 1; ++dx) {
-            const int yy = y + dy, xx = x + dx;
-            if (yy < 0 || xx < 0 || yy >= gh || xx >= gw) continue;
-            const float q = grid.at<float>(yy, xx);
-            if (std::isfinite(q)) sum += q, ++n;
-          }
-        if (n) next.at<float>(y, x) = static_cast<float>(sum / n);
-        else missing = true;
-      }
-    grid = next;
-    if (!missing || !any) break;
-  }
+  FillEmptyCellsFromNeighbours(&grid);
   cv::patchNaNs(grid, floor_sigma);
   cv::blur(grid, grid, {3, 3}, {-1, -1}, cv::BORDER_REPLICATE);
   cv::max(grid, floor_sigma, grid);  // before interpolation: a convex combination stays above the floor

@@ -11,6 +11,8 @@
 #include <stdexcept>
 #include <vector>
 
+#include "stages/damage/grid_fill.h"
+
 namespace rs {
 namespace {
 
@@ -226,27 +228,7 @@ cv::Mat CellGrid(const cv::Mat& depth, const cv::Mat& ignore, const cv::Mat& pri
     }
   });
   // Fill empty cells (damage, obstacles, no disparity) from their neighbours, ring by ring.
-  for (int pass = 0; pass < gw + gh; ++pass) {
-    cv::Mat next = grid.clone();
-    bool missing = false;
-    for (int y = 0; y < gh; ++y)
-      for (int x = 0; x < gw; ++x) {
-        if (std::isfinite(grid.at<float>(y, x))) continue;
-        double sum = 0;
-        int n = 0;
-        for (int dy = -1; dy <= 1; ++dy)
-          for (int dx = -1; dx <= 1; ++dx) {
-            const int yy = y + dy, xx = x + dx;
-            if (yy < 0 || xx < 0 || yy >= gh || xx >= gw) continue;
-            const float q = grid.at<float>(yy, xx);
-            if (std::isfinite(q)) sum += q, ++n;
-          }
-        if (n) next.at<float>(y, x) = static_cast<float>(sum / n);
-        else missing = true;
-      }
-    grid = next;
-    if (!missing) break;
-  }
+  FillEmptyCellsFromNeighbours(&grid);
   cv::patchNaNs(grid, 0.0);
   cv::blur(grid, grid, {3, 3}, {-1, -1}, cv::BORDER_REPLICATE);
   return grid;
