@@ -11,34 +11,58 @@
 
 namespace rs {
 
-CrackDetection DetectCracks(const cv::Mat& image, const cv::Mat& road_mask, const cv::Mat& exclude,
-                            const cv::Mat& pixel_size_m, const CrackOptions& o) {
-  o.Check();
+namespace {
+
+cv::Mat Grey(const cv::Mat& image) {
   if (image.empty() || image.depth() != CV_8U || (image.channels() != 1 && image.channels() != 3))
     throw std::invalid_argument("DetectCracks: image must be 8-bit grey or BGR");
-  auto same = [&](const cv::Mat& m, int type) { return m.empty() || (m.size() == image.size() && m.type() == type); };
-  if (!same(road_mask, CV_8UC1) || !same(exclude, CV_8UC1) || !same(pixel_size_m, CV_32FC1))
-    throw std::invalid_argument("DetectCracks: masks must be CV_8U and pixel sizes CV_32F of the image's size");
   cv::Mat grey;
   if (image.channels() == 3) cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
   else grey = image;
+  return grey;
+}
 
+cv::Mat ResponseOfGrey(const cv::Mat& grey, const CrackOptions& o) {
   // Multi-scale black-hat: closing fills dark structures narrower than the element.
   cv::Mat response = cv::Mat::zeros(grey.size(), CV_8U), bh;
   for (int k = o.min_scale_px; k <= o.max_scale_px; k += 4) {
     cv::morphologyEx(grey, bh, cv::MORPH_BLACKHAT, cv::getStructuringElement(cv::MORPH_ELLIPSE, {k, k}));
     response = cv::max(response, bh);
   }
-  cv::Mat search = road_mask.empty() ? cv::Mat(grey.size(), CV_8U, cv::Scalar(255)) : (road_mask != 0);
+  return response;
+}
+
+}  // namespace
+
+cv::Mat CrackResponse(const cv::Mat& image, const CrackOptions& o) {
+  o.Check();
+  return ResponseOfGrey(Grey(image), o);
+}
+
+CrackDetection DetectCracks(const cv::Mat& image, const cv::Mat& road_mask, const cv::Mat& exclude,
+                            const cv::Mat& pixel_size_m, const CrackOptions& o, const cv::Mat& precomputed) {
+  o.Check();
+  if (image.empty() || image.depth() != CV_8U || (image.channels() != 1 && image.channels() != 3))
+    throw std::invalid_argument("DetectCracks: image must be 8-bit grey or BGR");
+  if (!precomputed.empty() && (precomputed.size() != image.size() || precomputed.type() != CV_8UC1))
+    throw std::invalid_argument("DetectCracks: response must be CV_8U of the image's size");
+  auto same = [&](const cv::Mat& m, int type) { return m.empty() || (m.size() == image.size() && m.type() == type); };
+  if (!same(road_mask, CV_8UC1) || !same(exclude, CV_8UC1) || !same(pixel_size_m, CV_32FC1))
+    throw std::invalid_argument("DetectCracks: masks must be CV_8U and pixel sizes CV_32F of the image's size");
+  const cv::Mat response = precomputed.empty() ? ResponseOfGrey(Grey(image), o) : precomputed;
+  cv::Mat search = road_mask.empty() ? cv::Mat(image.size(), CV_8U, cv::Scalar(255)) : (road_mask != 0);
   if (!exclude.empty()) search &= (exclude == 0);
 
   CrackDetection out;
-  out.labels = cv::Mat::zeros(grey.size(), CV_16U);
+  out.labels = cv::Mat::zeros(image.size(), CV_16U);
   // Robust level of the texture response: median + k·1.4826·MAD over the searched road.
   std::vector<uchar> vals;
-  for (int v = 0; v < grey.rows; v += 2)
-    for (int u = 0; u < grey.cols; u += 2)
-      if (search.at<uchar>(v, u)) vals.push_back(response.at<uchar>(v, u));
+  for (int v = 0; v < image.rows; v += 2) {
+    const uchar* sr = search.ptr<uchar>(v);
+    const uchar* rr = response.ptr<uchar>(v);
+    for (int u = 0; u < image.cols; u += 2)
+      if (sr[u]) vals.push_back(rr[u]);
+  }
   if (vals.size() < 100) return out;
   auto mid = vals.begin() + vals.size() / 2;
   std::nth_element(vals.begin(), mid, vals.end());
@@ -61,7 +85,7 @@ CrackDetection DetectCracks(const cv::Mat& image, const cv::Mat& road_mask, cons
       continue;  // cannot be long enough
     cv::Rect box(stats.at<int>(i, cv::CC_STAT_LEFT) - 1, stats.at<int>(i, cv::CC_STAT_TOP) - 1,
                  stats.at<int>(i, cv::CC_STAT_WIDTH) + 2, stats.at<int>(i, cv::CC_STAT_HEIGHT) + 2);
-    box &= cv::Rect({}, grey.size());
+    box &= cv::Rect({}, image.size());
     const cv::Mat comp = cc(box) == i;
     cv::Mat skel, dist;
     cv::ximgproc::thinning(comp, skel, cv::ximgproc::THINNING_ZHANGSUEN);

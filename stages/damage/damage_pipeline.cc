@@ -10,6 +10,8 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <tbb/parallel_for.h>
+#include <tbb/task_group.h>
 
 #include <algorithm>
 #include <chrono>
@@ -83,6 +85,17 @@ FrameDamage DetectDamage(const cv::Mat& input_disparity_px, const cv::Mat& left_
   if (input_disparity_px.type() != CV_32FC1) throw std::invalid_argument("DetectDamage: disparity must be CV_32FC1");
   FrameDamage f;
   auto t0 = std::chrono::steady_clock::now();
+  // The image-only work (paint-edge mask, crack black-hat response) runs alongside the road
+  // model, whose fit is serial. Declared after its outputs: on an exception the group is
+  // cancelled and waited for before they go.
+  const bool want_edges = o.segment.noise_cell_px > 0 && !left_image.empty() && o.segment.edge_min_gradient > 0;
+  const bool want_cracks = o.crack.enabled && !left_image.empty();
+  cv::Mat edges, crack_response;
+  tbb::task_group image_work;
+  image_work.run([&] {
+    if (want_edges) edges = StrongEdgeMask(left_image, o.segment.edge_min_gradient, o.segment.edge_margin_px);
+    if (want_cracks) crack_response = CrackResponse(left_image, o.crack);
+  });
   cv::Mat disparity_px;  // a new image: the caller's disparity is not changed
   f.analysed_range_m = AnalysedRangeM(g, o, NearestDepthM(input_disparity_px, g));
   if (const double z_max = f.analysed_range_m; std::isfinite(z_max))  // beyond: set to 0 (invalid)
@@ -99,6 +112,7 @@ FrameDamage DetectDamage(const cv::Mat& input_disparity_px, const cv::Mat& left_
   f.ms_road = MsSince(t0);
 
   t0 = std::chrono::steady_clock::now();
+  image_work.wait();  // rethrows the image work's exception, if any
   ReliefImage relief{f.relief.transformed_disparity_px, f.relief.valid_mask & (f.relief.obstacle_mask == 0)};
   const cv::Mat area = PixelAreaOnRoad(f.relief, g, f.surface);
   const ReliefScale scale = EstimateReliefScale(relief);
@@ -108,25 +122,23 @@ FrameDamage DetectDamage(const cv::Mat& input_disparity_px, const cv::Mat& left_
   // a depression, where it does not (the truth disparity) nothing changes.
   cv::Mat noise, road_noise;
   if (o.segment.noise_cell_px > 0) {
-    cv::Mat reliable = relief.valid, edges;
-    if (!left_image.empty() && o.segment.edge_min_gradient > 0) {
-      edges = StrongEdgeMask(left_image, o.segment.edge_min_gradient, o.segment.edge_margin_px);
-      reliable = relief.valid & (edges == 0);
-    }
+    cv::Mat reliable = relief.valid;
+    if (!edges.empty()) reliable = relief.valid & (edges == 0);
     // Road samples beyond 40 frame σ above the road are structure (the smoothed fringe of an
     // obstacle, the model bent beside it), not matching noise; at paint edges they are the noise.
     noise = LocalReliefNoise(relief.value, reliable, scale.road_level, o.segment.noise_cell_px, scale.sigma, 40.0);
-    road_noise = noise.clone();
+    road_noise = noise;  // shared until the edge class changes `noise`
     if (!edges.empty() && cv::countNonZero(edges) > 0) {
       const cv::Mat edge_noise =
           LocalReliefNoise(relief.value, relief.valid & edges, scale.road_level, o.segment.noise_cell_px, scale.sigma);
-      for (int v = 0; v < noise.rows; ++v) {
+      noise = noise.clone();
+      tbb::parallel_for(0, noise.rows, [&](int v) {
         float* n = noise.ptr<float>(v);
         const float* en = edge_noise.ptr<float>(v);
         const uchar* e = edges.ptr<uchar>(v);
         for (int u = 0; u < noise.cols; ++u)
           if (e[u]) n[u] = std::max(n[u], en[u]);
-      }
+      });
     }
   }
   const DepressionSegmentation seg = SegmentDepressions(relief, o.segment, area, scale, noise);
@@ -158,8 +170,8 @@ FrameDamage DetectDamage(const cv::Mat& input_disparity_px, const cv::Mat& left_
     t0 = std::chrono::steady_clock::now();
     cv::Mat pixel_size;
     cv::sqrt(area, pixel_size);  // metres per pixel on the road (NaN off-road)
-    const cv::Mat road = f.relief.valid_mask & (f.relief.obstacle_mask == 0);
-    const CrackDetection cracks = DetectCracks(left_image, road, f.labels != 0, pixel_size, o.crack);
+    // relief.valid: the road mask (valid, not obstacle); RefineRoadRelief changes neither mask.
+    const CrackDetection cracks = DetectCracks(left_image, relief.valid, f.labels != 0, pixel_size, o.crack, crack_response);
     AddCracks(cracks, f.labels, f.instances);
     f.ms_cracks = MsSince(t0);
   }

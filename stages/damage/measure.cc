@@ -1,6 +1,7 @@
 #include "stages/damage/measure.h"
 
 #include <opencv2/imgproc.hpp>
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <climits>
@@ -16,26 +17,41 @@ double StereoDepthSigma(double z_m, double sigma_d, const StereoGeometry& g) {
 cv::Mat PixelAreaOnRoad(const RoadRelief& r, const StereoGeometry& g, const RoadSurface& s) {
   cv::Mat area(r.road_depth_m.size(), CV_32F);
   const double k = 1.0 / (g.f_px * g.f_px * std::max(s.camera_height_m, 1e-9));
-  for (int v = 0; v < area.rows; ++v) {
+  tbb::parallel_for(0, area.rows, [&](int v) {
     const float* z = r.road_depth_m.ptr<float>(v);
     float* a = area.ptr<float>(v);
     for (int u = 0; u < area.cols; ++u) a[u] = static_cast<float>(double(z[u]) * z[u] * z[u] * k);
-  }
+  });
   return area;
 }
 
 std::vector<cv::Rect> LabelBoxes(const cv::Mat& labels) {
   if (labels.type() != CV_16UC1) throw std::invalid_argument("LabelBoxes: labels must be CV_16U");
   struct Box { int u0 = INT_MAX, v0 = INT_MAX, u1 = -1, v1 = -1; };
+  // Bands of rows in parallel, merged afterwards (min/max: the same boxes for any split).
+  constexpr int kBands = 8;
+  std::vector<std::vector<Box>> band(kBands, std::vector<Box>(1));
+  tbb::parallel_for(0, kBands, [&](int k) {
+    std::vector<Box>& b = band[k];
+    const int v0 = labels.rows * k / kBands, v1 = labels.rows * (k + 1) / kBands;
+    for (int v = v0; v < v1; ++v) {
+      const uint16_t* l = labels.ptr<uint16_t>(v);
+      for (int u = 0; u < labels.cols; ++u) {
+        const int id = l[u];
+        if (!id) continue;
+        if (id >= static_cast<int>(b.size())) b.resize(id + 1);
+        Box& x = b[id];
+        x.u0 = std::min(x.u0, u), x.u1 = std::max(x.u1, u), x.v0 = std::min(x.v0, v), x.v1 = std::max(x.v1, v);
+      }
+    }
+  });
   std::vector<Box> b(1);
-  for (int v = 0; v < labels.rows; ++v) {
-    const uint16_t* l = labels.ptr<uint16_t>(v);
-    for (int u = 0; u < labels.cols; ++u) {
-      const int id = l[u];
-      if (!id) continue;
-      if (id >= static_cast<int>(b.size())) b.resize(id + 1);
-      Box& x = b[id];
-      x.u0 = std::min(x.u0, u), x.u1 = std::max(x.u1, u), x.v0 = std::min(x.v0, v), x.v1 = std::max(x.v1, v);
+  for (const std::vector<Box>& bb : band) {
+    if (bb.size() > b.size()) b.resize(bb.size());
+    for (size_t i = 1; i < bb.size(); ++i) {
+      Box& x = b[i];
+      x.u0 = std::min(x.u0, bb[i].u0), x.u1 = std::max(x.u1, bb[i].u1);
+      x.v0 = std::min(x.v0, bb[i].v0), x.v1 = std::max(x.v1, bb[i].v1);
     }
   }
   std::vector<cv::Rect> out(b.size());
@@ -83,19 +99,25 @@ void ExtendToRim(cv::Mat& labels, const RoadRelief& r, double rim_depth_m, doubl
     // above the local road-model misfit (a crown's ridge) and the stereo noise, else the rim
     // grows into the road.
     std::vector<float> ring;
-    for (int v = 0; v < lab.rows; ++v)
+    for (int v = 0; v < lab.rows; ++v) {
+      const float* dr = dist.ptr<float>(v);
+      const float* xr = depth.ptr<float>(v);
+      const uint16_t* lr = lab.ptr<uint16_t>(v);
+      const uchar* obr = obstacle.ptr<uchar>(v);
       for (int u = 0; u < lab.cols; ++u) {
-        const float dd = dist.at<float>(v, u), x = depth.at<float>(v, u);
-        if (dd > band && dd <= 2 * band && lab.at<uint16_t>(v, u) == 0 && !obstacle.at<uchar>(v, u) &&
-            std::isfinite(x))
-          ring.push_back(x);
+        const float dd = dr[u], x = xr[u];
+        if (dd > band && dd <= 2 * band && lr[u] == 0 && !obr[u] && std::isfinite(x)) ring.push_back(x);
       }
+    }
     // The instance's depth (99th percentile): the smoothing's halo and the local model's misfit
     // beside a deep wall grow with it.
     std::vector<float> inside;
-    for (int v = 0; v < lab.rows; ++v)
+    for (int v = 0; v < lab.rows; ++v) {
+      const uchar* in = inst.ptr<uchar>(v);
+      const float* xr = depth.ptr<float>(v);
       for (int u = 0; u < lab.cols; ++u)
-        if (inst.at<uchar>(v, u) && std::isfinite(depth.at<float>(v, u))) inside.push_back(depth.at<float>(v, u));
+        if (in[u] && std::isfinite(xr[u])) inside.push_back(xr[u]);
+    }
     double threshold_mm = rim_depth_m * 1000.0, ring_level = 0, ring_sigma = 0;
     if (!inside.empty()) {
       auto at = inside.begin() + static_cast<long>(0.99 * (inside.size() - 1));
@@ -118,9 +140,12 @@ void ExtendToRim(cv::Mat& labels, const RoadRelief& r, double rim_depth_m, doubl
     cv::Mat cc;
     const int n = cv::connectedComponents(cand, cc, 8, CV_32S);
     std::vector<char> keep(n, 0);
-    for (int v = 0; v < cc.rows; ++v)
+    for (int v = 0; v < cc.rows; ++v) {
+      const uchar* in = inst.ptr<uchar>(v);
+      const int* c = cc.ptr<int>(v);
       for (int u = 0; u < cc.cols; ++u)
-        if (inst.at<uchar>(v, u)) keep[cc.at<int>(v, u)] = 1;
+        if (in[u]) keep[c[u]] = 1;
+    }
     for (int v = 0; v < cc.rows; ++v) {
       uint16_t* l = lab.ptr<uint16_t>(v);
       const int* c = cc.ptr<int>(v);
@@ -179,12 +204,14 @@ double CoreWidthM(const cv::Mat& labels, int id, const RoadRelief& r, const cv::
   cv::copyMakeBorder(core, padded, 1, 1, 1, 1, cv::BORDER_CONSTANT, 0);
   cv::distanceTransform(padded, dist, cv::DIST_L2, cv::DIST_MASK_5);
   double best = 0;
-  for (int v = 0; v < core.rows; ++v)
+  for (int v = 0; v < core.rows; ++v) {
+    const float* ar = pixel_area_m2.ptr<float>(roi.y + v) + roi.x;
+    const float* dr = dist.ptr<float>(v + 1) + 1;
     for (int u = 0; u < core.cols; ++u) {
-      const float a = pixel_area_m2.at<float>(roi.y + v, roi.x + u);
-      const float dpx = dist.at<float>(v + 1, u + 1);
+      const float a = ar[u], dpx = dr[u];
       if (dpx > 0 && std::isfinite(a)) best = std::max(best, 2.0 * dpx * std::sqrt(double(a)));
     }
+  }
   return best;
 }
 

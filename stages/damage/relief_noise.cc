@@ -1,6 +1,7 @@
 #include "stages/damage/relief_noise.h"
 
 #include <opencv2/imgproc.hpp>
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <cmath>
@@ -21,8 +22,9 @@ cv::Mat LocalReliefNoise(const cv::Mat& value, const cv::Mat& valid, double leve
   const int gw = (value.cols + cell - 1) / cell, gh = (value.rows + cell - 1) / cell;
   const float nan = std::numeric_limits<float>::quiet_NaN();
   cv::Mat grid(gh, gw, CV_32F, cv::Scalar(nan));
-  std::vector<float> up;
-  for (int gy = 0; gy < gh; ++gy)
+  // One grid row per task: cells are independent, so the result does not depend on the threads.
+  tbb::parallel_for(0, gh, [&](int gy) {
+    std::vector<float> up;
     for (int gx = 0; gx < gw; ++gx) {
       up.clear();
       int seen = 0;
@@ -41,8 +43,9 @@ cv::Mat LocalReliefNoise(const cv::Mat& value, const cv::Mat& valid, double leve
       // whose surroundings the local road correction bends: its neighbours' noise is used instead.
       if (up.size() < 20 || up.size() < 0.35 * seen) continue;
       std::nth_element(up.begin(), up.begin() + up.size() / 2, up.end());
-      grid.at<float>(gy, gx) = static_cast<float>(up[up.size() / 2] / 0.6745);
+      grid.ptr<float>(gy)[gx] = static_cast<float>(up[up.size() / 2] / 0.6745);
     }
+  });
   // Cells without road (obstacles, large damage, no disparity) take their neighbours' noise.
   FillEmptyCellsFromNeighbours(&grid);
   cv::patchNaNs(grid, floor_sigma);

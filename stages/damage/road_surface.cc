@@ -3,8 +3,10 @@
 #include <Eigen/Dense>
 #include <opencv2/imgproc.hpp>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -114,16 +116,27 @@ RoadSurface FitRoadSurface(const cv::Mat& disparity_px, const StereoGeometry& g,
   Eigen::Vector3d best_n = -Eigen::Vector3d::UnitY();
   double best_c = 0;
   int best_score = -1;
-  for (int it = 0; it < o.ransac_iterations; ++it) {
-    const Eigen::Vector3d &a = pts[pick(rng)], &b = pts[pick(rng)], &c = pts[pick(rng)];
+  // Samples drawn in sequence (the same random stream), hypotheses scored in parallel, the best
+  // taken in iteration order (first of equal scores): the same plane as a serial loop.
+  std::vector<std::array<int, 3>> draws(o.ransac_iterations);
+  for (auto& d : draws)
+    for (int& k : d) k = pick(rng);
+  std::vector<Eigen::Vector3d> hyp_n(draws.size());
+  std::vector<double> hyp_c(draws.size());
+  std::vector<int> hyp_score(draws.size(), -2);  // -2: degenerate sample, skipped
+  tbb::parallel_for(0, static_cast<int>(draws.size()), [&](int it) {
+    const Eigen::Vector3d &a = pts[draws[it][0]], &b = pts[draws[it][1]], &c = pts[draws[it][2]];
     Eigen::Vector3d n = (b - a).cross(c - a);
-    if (n.norm() < 1e-12) continue;
+    if (n.norm() < 1e-12) return;
     n.normalize();
     const double off = n.dot(a);
     int score = 0;
     for (int i : subset) score += std::abs(n.dot(pts[i]) - off) < o.ransac_inlier_m;
-    if (score > best_score) best_score = score, best_n = n, best_c = off;
-  }
+    hyp_n[it] = n, hyp_c[it] = off, hyp_score[it] = score;
+  });
+  for (size_t it = 0; it < draws.size(); ++it)
+    if (hyp_score[it] > -2 && hyp_score[it] > best_score)
+      best_score = hyp_score[it], best_n = hyp_n[it], best_c = hyp_c[it];
   // Least-squares plane through the RANSAC inliers.
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
   std::vector<int> inl;
@@ -313,13 +326,20 @@ void ApplyCorrection(RoadRelief& r, const cv::Mat& corr, const cv::Mat& disparit
 // Invalid pixels hold 0 in the transformed disparity and NaN in the depth.
 void SmoothRelief(RoadRelief& r, const RoadModelOptions& o) {
   const cv::Size k(o.relief_smooth_px, o.relief_smooth_px);
-  cv::Mat w, wsum, depth0, dsum, tsum;
-  r.valid_mask.convertTo(w, CV_32F, 1.0 / 255.0);
-  cv::boxFilter(w, wsum, CV_32F, k, {-1, -1}, false, cv::BORDER_CONSTANT);
-  depth0 = r.depth_below_mm.clone();
-  cv::patchNaNs(depth0, 0.0);
-  cv::boxFilter(depth0, dsum, CV_32F, k, {-1, -1}, false, cv::BORDER_CONSTANT);
-  cv::boxFilter(r.transformed_disparity_px, tsum, CV_32F, k, {-1, -1}, false, cv::BORDER_CONSTANT);
+  cv::Mat wsum, depth0(r.depth_below_mm.size(), CV_32F), dsum, tsum;
+  // Depth with invalid (NaN) = 0, in one pass (was clone + patchNaNs).
+  tbb::parallel_for(0, depth0.rows, [&](int v) {
+    const float* x = r.depth_below_mm.ptr<float>(v);
+    float* y = depth0.ptr<float>(v);
+    for (int u = 0; u < depth0.cols; ++u) y[u] = std::isnan(x[u]) ? 0.0f : x[u];
+  });
+  // The three sums are independent (each single-threaded in OpenCV): run them side by side.
+  // Valid-pixel counts summed on the 0/255 mask itself (integer sums: exactly 255 × count,
+  // divided back below; was a float 0/1 copy of the mask).
+  tbb::parallel_invoke(
+      [&] { cv::boxFilter(r.valid_mask, wsum, CV_32F, k, {-1, -1}, false, cv::BORDER_CONSTANT); },
+      [&] { cv::boxFilter(depth0, dsum, CV_32F, k, {-1, -1}, false, cv::BORDER_CONSTANT); },
+      [&] { cv::boxFilter(r.transformed_disparity_px, tsum, CV_32F, k, {-1, -1}, false, cv::BORDER_CONSTANT); });
   tbb::parallel_for(0, wsum.rows, [&](int v) {
     const uchar* va = r.valid_mask.ptr<uchar>(v);
     const float* ws = wsum.ptr<float>(v);
@@ -329,8 +349,9 @@ void SmoothRelief(RoadRelief& r, const RoadModelOptions& o) {
     float* td = r.transformed_disparity_px.ptr<float>(v);
     for (int u = 0; u < wsum.cols; ++u) {
       if (!va[u]) continue;  // stays NaN / 0
-      db[u] = ds[u] / ws[u];
-      td[u] = std::max(1e-3f, ts[u] / ws[u]);  // valid stays > 0
+      const float n = ws[u] / 255.0f;  // exact: ws = 255 × count
+      db[u] = ds[u] / n;
+      td[u] = std::max(1e-3f, ts[u] / n);  // valid stays > 0
     }
   });
 }

@@ -5,6 +5,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <stdexcept>
 #include <vector>
@@ -19,18 +20,19 @@ cv::Mat Hysteresis(const cv::Mat& seed, const cv::Mat& grow) {
   cv::Mat cc;
   const int n = cv::connectedComponents(grow, cc, 8, CV_32S);
   std::vector<char> keep(n, 0);
-  for (int v = 0; v < seed.rows; ++v) {
+  // Rows in parallel: every writer stores the same value 1 (relaxed atomic stores, no race).
+  tbb::parallel_for(0, seed.rows, [&](int v) {
     const uchar* s = seed.ptr<uchar>(v);
     const int* c = cc.ptr<int>(v);
     for (int u = 0; u < seed.cols; ++u)
-      if (s[u] && c[u] > 0) keep[c[u]] = 1;
-  }
+      if (s[u] && c[u] > 0) std::atomic_ref<char>(keep[c[u]]).store(1, std::memory_order_relaxed);
+  });
   cv::Mat out(seed.size(), CV_8U);
-  for (int v = 0; v < seed.rows; ++v) {
+  tbb::parallel_for(0, seed.rows, [&](int v) {
     const int* c = cc.ptr<int>(v);
     uchar* o = out.ptr<uchar>(v);
     for (int u = 0; u < seed.cols; ++u) o[u] = keep[c[u]] ? 255 : 0;
-  }
+  });
   return out;
 }
 
@@ -256,15 +258,23 @@ double EnergyThresholdSigma(const cv::Mat& z, const cv::Mat& valid, const Segmen
   // Histogram of z on [-zmax, 6], bins of 0.25σ. Damage deeper than zmax piles into the first bin.
   const double zmax = std::max(60.0, 2 * o.max_threshold_sigma), bw = 0.25;
   const int bins = static_cast<int>((zmax + 6.0) / bw);
-  std::vector<double> h(bins, 0.0);
-  for (int v = 0; v < z.rows; ++v) {
-    const float* zr = z.ptr<float>(v);
-    const uchar* m = valid.ptr<uchar>(v);
-    for (int u = 0; u < z.cols; ++u) {
-      if (!m[u] || !(zr[u] <= 6.0f)) continue;
-      h[std::clamp(static_cast<int>((zr[u] + zmax) / bw), 0, bins - 1)] += 1;
+  // Integer counts per band of rows, summed afterwards: exact, the same for any split.
+  constexpr int kBands = 8;
+  std::vector<std::vector<int>> hb(kBands, std::vector<int>(bins, 0));
+  tbb::parallel_for(0, kBands, [&](int k) {
+    std::vector<int>& hk = hb[k];
+    for (int v = z.rows * k / kBands; v < z.rows * (k + 1) / kBands; ++v) {
+      const float* zr = z.ptr<float>(v);
+      const uchar* m = valid.ptr<uchar>(v);
+      for (int u = 0; u < z.cols; ++u) {
+        if (!m[u] || !(zr[u] <= 6.0f)) continue;
+        ++hk[std::clamp(static_cast<int>((zr[u] + zmax) / bw), 0, bins - 1)];
+      }
     }
-  }
+  });
+  std::vector<double> h(bins, 0.0);
+  for (const std::vector<int>& hk : hb)
+    for (int i = 0; i < bins; ++i) h[i] += hk[i];
   double n = 0, sum = 0;
   for (int i = 0; i < bins; ++i) n += h[i], sum += h[i] * (-zmax + (i + 0.5) * bw);
   // Two-class energy: within-class squared error, minimised where n1·n2·(m1 − m2)² is largest.
@@ -304,13 +314,13 @@ DepressionSegmentation SegmentDepressions(const ReliefImage& relief, const Segme
     // growth stays on the frame's σ, so a seeded region is not cut by the noise estimate's
     // own rise around large damage (the local road correction's misfit there).
     const float level = static_cast<float>(out.scale.road_level), k = static_cast<float>(o.min_threshold_sigma);
-    for (int v = 0; v < seed.rows; ++v) {  // seeds are sparse: test only them
+    tbb::parallel_for(0, seed.rows, [&](int v) {  // seeds are sparse: test only them
       uchar* sd = seed.ptr<uchar>(v);
       const float* x = relief.value.ptr<float>(v);
       const float* ns = noise_sigma.ptr<float>(v);
       for (int u = 0; u < seed.cols; ++u)
         if (sd[u] && !(x[u] - level < -k * ns[u])) sd[u] = 0;
-    }
+    });
     out.noise_sigma = noise_sigma;
   }
   // Seeds must survive a small opening, so isolated noisy pixels do not start regions.
@@ -343,12 +353,12 @@ DepressionSegmentation SegmentDepressions(const ReliefImage& relief, const Segme
     if (out.count >= 65535) { ++out.dropped_small; continue; }  // 16-bit label image is full
     new_id[i] = ++out.count;
   }
-  out.labels = cv::Mat::zeros(mask.size(), CV_16U);
-  for (int v = 0; v < cc.rows; ++v) {
+  out.labels.create(mask.size(), CV_16U);  // every pixel written below
+  tbb::parallel_for(0, cc.rows, [&](int v) {
     const int* c = cc.ptr<int>(v);
     uint16_t* l = out.labels.ptr<uint16_t>(v);
     for (int u = 0; u < cc.cols; ++u) l[u] = static_cast<uint16_t>(new_id[c[u]]);
-  }
+  });
   return out;
 }
 
