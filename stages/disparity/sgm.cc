@@ -135,19 +135,13 @@ SgmOutput ComputeSgm(const cv::Mat& left_gray8, const cv::Mat& right_gray8, cons
   // ~8 MB stay cached, because the upward pass starts there.
   const int stream_rows = H - static_cast<int>((size_t{8} << 20) / (static_cast<size_t>(W) * Dp * sizeof(uint16_t)));
 
+  const PassInputs in{vol, bias.data(), pen, img, P, W, H, D, Dp};
+
   // Pass 1: cost and horizontal paths.
   t0 = std::chrono::steady_clock::now();
   std::atomic<double> cost_ms_total{0};
   {
-    const CostContext ctx{vol,
-                          bias.data(),
-                          pen,
-                          img,
-                          P,
-                          W,
-                          H,
-                          D,
-                          Dp,
+    const CostContext ctx{in,
                           cl.data(),
                           cr.data(),
                           census_l,
@@ -194,8 +188,7 @@ SgmOutput ComputeSgm(const cv::Mat& left_gray8, const cv::Mat& right_gray8, cons
   double wta_ms = 0;
 
   if (P.num_paths == 4) {
-    const VerticalContext ctx{vol,  bias.data(), pen,         img,   P,      W,   H, D, Dp, lr, wta, best.data(),
-                              right.data(), edge.data(), block, blocks, &out, pk};
+    const VerticalContext ctx{in, lr, wta, best.data(), right.data(), edge.data(), block, blocks, &out, pk};
     VerticalPathsAndWta(ctx);  // specialised on nchunks inside
   } else {
     // With diagonals: sweep rows; each row's columns are independent given the previous row.

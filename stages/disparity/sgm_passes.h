@@ -30,14 +30,20 @@ constexpr int kRowsPerToken = 4;  // four independent path chains per thread hid
 // per 1280x720 frame cheaper than 4 on 2 threads).
 int PipelineTokens();
 
-// Inputs of pass 1 (see ComputeSgm).
-struct CostContext {
+// What both passes read (see ComputeSgm).
+struct PassInputs {
   const Volume& vol;
   const v16* bias;
   const Penalties& pen;
   const uint8_t* img;  // left image, W x H continuous
   const SgmParams& P;
   int W, H, D, Dp;
+  int Offset(int v) const { return P.min_disparity + (P.row_offset.empty() ? 0 : P.row_offset[v]); }
+  int I(int v, int u) const { return img[static_cast<size_t>(v) * W + u]; }
+};
+
+// Inputs of pass 1.
+struct CostContext : PassInputs {
   uint64_t* cl;  // census codes, left and right: computed per token from census_l / census_r
   uint64_t* cr;
   const CensusPlan& census_l;
@@ -53,21 +59,13 @@ struct CostContext {
   uint16_t* sum_rows;
   int ring;
   int stream_rows;  // packed layout: rows above this one are stored non-temporally
-  int Offset(int v) const { return P.min_disparity + (P.row_offset.empty() ? 0 : P.row_offset[v]); }
-  int I(int v, int u) const { return img[static_cast<size_t>(v) * W + u]; }
   size_t Row(int v) const { return static_cast<size_t>(ring ? v % ring : v) * W; }
   uint8_t* Cost(int v, int u) const { return cost_rows + (Row(v) + u) * Dp; }
   uint16_t* Sum(int v, int u) const { return sum_rows + (Row(v) + u) * Dp; }
 };
 
-// Inputs and outputs of the 4-path upward sweep (see ComputeSgm).
-struct VerticalContext {
-  const Volume& vol;
-  const v16* bias;
-  const Penalties& pen;
-  const uint8_t* img;  // left image, W x H continuous
-  const SgmParams& P;
-  int W, H, D, Dp;
+// Inputs and outputs of the 4-path upward sweep.
+struct VerticalContext : PassInputs {
   bool lr;
   const Wta& wta;
   uint16_t* best;
@@ -76,8 +74,6 @@ struct VerticalContext {
   int block, blocks;  // column blocks [b * block, min(W, (b + 1) * block)), block >= Dp
   SgmOutput* out;
   const PackedLayout& pk;  // on: vol.sum holds the packed S3 | C (vol.cost unused)
-  int Offset(int v) const { return P.min_disparity + (P.row_offset.empty() ? 0 : P.row_offset[v]); }
-  int I(int v, int u) const { return img[static_cast<size_t>(v) * W + u]; }
 };
 
 // Pass 1: cost and horizontal paths, independent per row, in pairs of rows (a path step waits on
