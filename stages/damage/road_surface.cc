@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "stages/damage/grid_fill.h"
+#include "stages/damage/rect_merge.h"
 
 namespace rs {
 namespace {
@@ -478,17 +479,7 @@ void RefineRoadRelief(RoadRelief& r, const RoadRelief& evaluated, const cv::Mat&
     const int gw = stats.at<int>(i, cv::CC_STAT_WIDTH), gh = stats.at<int>(i, cv::CC_STAT_HEIGHT);
     regions.push_back(cv::Rect((gx - 1) * cell, (gy - 1) * cell, (gw + 2) * cell, (gh + 2) * cell) & frame);
   }
-  for (bool merged = true; merged;) {  // overlapping regions merged: no pixel done twice
-    merged = false;
-    for (size_t i = 0; i < regions.size() && !merged; ++i)
-      for (size_t j = i + 1; j < regions.size(); ++j)
-        if ((regions[i] & regions[j]).area() > 0) {
-          regions[i] |= regions[j];
-          regions.erase(regions.begin() + static_cast<long>(j));
-          merged = true;
-          break;
-        }
-  }
+  MergeOverlappingRects(&regions);  // no pixel done twice
   for (const cv::Rect& inner : regions) {
     const cv::Rect outer = cv::Rect(inner.x - m, inner.y - m, inner.width + 2 * m, inner.height + 2 * m) & frame;
     RoadRelief sub;

@@ -10,6 +10,8 @@
 #include <stdexcept>
 #include <vector>
 
+#include "stages/damage/rect_merge.h"
+
 namespace rs {
 namespace {
 
@@ -91,17 +93,7 @@ std::vector<cv::Rect> CandidateRois(const cv::Mat& mask, int pad) {
                             stats.at<int>(i, cv::CC_STAT_WIDTH) + 2 * pad,
                             stats.at<int>(i, cv::CC_STAT_HEIGHT) + 2 * pad) &
                    frame);
-  for (bool merged = true; merged;) {
-    merged = false;
-    for (size_t i = 0; i < rois.size() && !merged; ++i)
-      for (size_t j = i + 1; j < rois.size(); ++j)
-        if ((rois[i] & rois[j]).area() > 0) {
-          rois[i] |= rois[j];
-          rois.erase(rois.begin() + static_cast<long>(j));
-          merged = true;
-          break;
-        }
-  }
+  MergeOverlappingRects(&rois);
   return rois;
 }
 
