@@ -23,6 +23,7 @@ void RoadModelOptions::Check() const {
   Require(delta_px >= 0, "delta_px", delta_px, ">=", "0", 0);
   Require(local_cell_px >= 0, "local_cell_px", local_cell_px, ">=", "0", 0);
   Require(relief_smooth_px >= 1, "relief_smooth_px", relief_smooth_px, ">=", "1", 1);
+  Require(relief_smooth_edge_sigma >= 0, "relief_smooth_edge_sigma", relief_smooth_edge_sigma, ">=", "0", 0);
   Require(max_depth_sigma_m >= 0, "max_depth_sigma_m", max_depth_sigma_m, ">=", "0", 0);
   Require(min_range_factor >= 1, "min_range_factor", min_range_factor, ">=", "1", 1);
 }
@@ -41,6 +42,11 @@ const OptionTable<RoadModelOptions>& RoadModelOptions::Table() {
       .Add("local_cell_px", &O::local_cell_px, "cell of the local road-model correction (0 = off)", "px").Min(0)
       .Add("relief_smooth_px", &O::relief_smooth_px, "box filter of the relief against stereo noise (1 = off)", "px")
       .Min(1)
+      .Add("relief_smooth_ground", &O::relief_smooth_ground,
+           "shape the relief smoothing window to a square on the road (oblique views: shorter, wider on the image)")
+      .Add("relief_smooth_edge_sigma", &O::relief_smooth_edge_sigma,
+           "pixels differing from their smoothed value by more than this many noise sigma keep their own (0 = off)")
+      .Min(0)
       .Add("max_depth_sigma_m", &O::max_depth_sigma_m,
            "analysed range: drop disparities whose depth uncertainty sigma_Z exceeds this (0 = all)", "m")
       .Min(0)
@@ -82,6 +88,8 @@ const OptionTable<SegmentOptions>& SegmentOptions::Table() {
       .Min(0)
       .Add("edge_margin_px", &O::edge_margin_px, "distance from such a step of those pixels", "px").Min(0)
       .Add("slic_region_size_px", &O::slic_region_size_px, "SLIC superpixel size (0 = off)", "px").Min(0)
+      .Add("slic_ground", &O::slic_ground,
+           "oblique views: SLIC superpixels square on the road (same pixel count), not on the image")
       .Add("slic_ruler", &O::slic_ruler, "SLIC compactness").Above(0)
       .Add("superpixel_vote", &O::superpixel_vote, "below-threshold fraction making a superpixel damage")
       .Above(0).Below(1)
@@ -132,6 +140,9 @@ void MeasureOptions::Check() const {
           pothole_min_compactness, "in", "[0, 1]", 0);
   Require(pothole_min_depth_sigma >= 0, "pothole_min_depth_sigma", pothole_min_depth_sigma, ">=", "0", 0);
   Require(pothole_min_noise_sigma >= 0, "pothole_min_noise_sigma", pothole_min_noise_sigma, ">=", "0", 0);
+  Require(pothole_min_spike_ratio >= 0, "pothole_min_spike_ratio", pothole_min_spike_ratio, ">=", "0", 0);
+  Require(spike_quantile > 0.5, "spike_quantile", spike_quantile, ">", "0.5", 0.5);
+  Require(spike_quantile < 1, "spike_quantile", spike_quantile, "<", "1", 1);
   Require(depth_percentile > 0.5 && depth_percentile <= 1, "depth_percentile", depth_percentile, "in", "(0.5, 1]",
           0);
 }
@@ -154,6 +165,12 @@ const OptionTable<MeasureOptions>& MeasureOptions::Table() {
       .Add("pothole_min_noise_sigma", &O::pothole_min_noise_sigma,
            "depressions shallower than this many sigma of the local relief noise are 'other' (0 = off)")
       .Min(0)
+      .Add("pothole_min_spike_ratio", &O::pothole_min_spike_ratio,
+           "depressions shallower than this multiple of the road's local upward error reach are 'other' "
+           "(needs pothole_min_noise_sigma > 0; 0 = off)")
+      .Min(0)
+      .Add("spike_quantile", &O::spike_quantile, "quantile of a noise cell's upward deviations taken as its error reach")
+      .Above(0.5).Below(1)
       .Add("depth_percentile", &O::depth_percentile, "percentile of depth reported as max depth").Above(0.5).Max(1);
   return table;
 }

@@ -22,6 +22,18 @@ struct RoadModelOptions {
   /// Side of the normalised box filter (valid pixels only) applied to the transformed disparity
   /// and the depth below the road: averages stereo matching noise; 1 = off.
   int relief_smooth_px = 7;
+  /// The smoothing window covers a square on the road with about relief_smooth_px² pixels:
+  /// in an oblique view (car) it is shorter and wider on the image (relief_smooth.h). A square
+  /// image window there spans 3-5× more road along the driving direction than across and
+  /// smeared foreshortened potholes' rims outwards (area +20 to +60 % at 5-8 m); false: square
+  /// on the image.
+  bool relief_smooth_ground = true;
+  /// Pixels whose transformed disparity differs from its smoothed value by more than this many
+  /// σ (robust σ of that difference over the frame: the matching noise) keep their own values:
+  /// the smoothing averages noise, not a pothole's rim or the occlusion edge at its near wall,
+  /// which it smeared onto the road beside (car, truth disparity: area +20 to +40 % for 0.3 m
+  /// potholes at 5-6 m); 0 = off.
+  double relief_smooth_edge_sigma = 16.0;
   /// Analysed range: disparities whose stereo depth uncertainty σ_Z = Z²·σ_d/(f·B) (σ_d =
   /// measure.sigma_disparity_px) exceeds this are dropped before the road fit (the far road of
   /// a forward-looking camera, where no depth can be measured, bends the model); 0 = keep all.
@@ -47,6 +59,10 @@ struct SegmentOptions {
   double edge_min_gradient = 10.0;
   int edge_margin_px = 6;  ///< ... and at most this far from such a step, px
   int slic_region_size_px = 16;       ///< SLIC superpixel size used to snap boundaries, px (0 = no SLIC)
+  /// In oblique views (a pixel ≥ 1.5× longer on the road along the column than across) shape the
+  /// superpixels square on the road (same pixel count): square image superpixels there span a
+  /// small pothole's whole length along the view.
+  bool slic_ground = true;
   double slic_ruler = 20.0;           ///< SLIC compactness
   double superpixel_vote = 0.4;       ///< fraction of below-threshold pixels that makes a superpixel damage
   double grow_fraction = 0.5;         ///< hysteresis: grow regions into pixels deeper than this fraction of the threshold
@@ -94,6 +110,13 @@ struct MeasureOptions {
   /// segment.noise_cell_px > 0): a depression no deeper than the ripples around it is not
   /// confirmed as a pothole. 0 = off.
   double pothole_min_noise_sigma = 8.0;
+  /// Max depth must also reach this multiple of how far the road's upward errors reach around it
+  /// (LocalReliefSpikes: the spike_quantile of the upward deviations per noise cell): SGM's wrong
+  /// winners fake depressions as deep as they fake bumps, real damage only goes down. 0 = off.
+  double pothole_min_spike_ratio = 2.0;
+  /// Calibrated: quantile of a noise cell's upward deviations taken as its error reach (0.999 of
+  /// the ~500 samples of a 96 px cell: about its largest).
+  double spike_quantile = 0.999;
   double depth_percentile = 0.99;       ///< max depth = this percentile of per-pixel depth (rejects single-pixel spikes)
   void Check() const;
   static const OptionTable<MeasureOptions>& Table();

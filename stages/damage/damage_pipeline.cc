@@ -5,6 +5,7 @@
 #include "stages/damage/image_edges.h"
 #include "stages/damage/measure.h"
 #include "stages/damage/relief_noise.h"
+#include "stages/damage/relief_smooth.h"
 #include "stages/damage/severity.h"
 
 #include <nlohmann/json.hpp>
@@ -113,7 +114,8 @@ FrameDamage DetectDamage(const cv::Mat& input_disparity_px, const cv::Mat& left_
 
   t0 = std::chrono::steady_clock::now();
   image_work.wait();  // rethrows the image work's exception, if any
-  ReliefImage relief{f.relief.transformed_disparity_px, f.relief.valid_mask & (f.relief.obstacle_mask == 0)};
+  ReliefImage relief{f.relief.transformed_disparity_px, f.relief.valid_mask & (f.relief.obstacle_mask == 0),
+                     RoadRowElongation(disparity_px.rows, g, f.surface.normal)};
   const cv::Mat area = PixelAreaOnRoad(f.relief, g, f.surface);
   const ReliefScale scale = EstimateReliefScale(relief);
   // Seeds must be significant against the noise where they lie (LocalReliefNoise, never below
@@ -162,8 +164,16 @@ FrameDamage DetectDamage(const cv::Mat& input_disparity_px, const cv::Mat& left_
   f.ms_segment = MsSince(t0);
 
   t0 = std::chrono::steady_clock::now();
-  f.instances = MeasureDepressions(f.labels, f.relief, g, f.surface, o.measure,
-                                   o.measure.pothole_min_noise_sigma > 0 ? road_noise : cv::Mat());
+  cv::Mat measure_noise = o.measure.pothole_min_noise_sigma > 0 ? road_noise : cv::Mat();
+  if (!measure_noise.empty() && o.measure.pothole_min_spike_ratio > 0) {
+    // The spike rule folded into the noise rule (measured over the instance as one mean):
+    // max depth ≥ min_noise_sigma · max(noise, spikes · spike_ratio / min_noise_sigma). Edge
+    // pixels are included: wrong winners gather there.
+    const cv::Mat spikes = LocalReliefSpikes(relief.value, relief.valid, scale.road_level, o.segment.noise_cell_px,
+                                             scale.sigma, 40.0, o.measure.spike_quantile);
+    measure_noise = cv::max(road_noise, spikes * (o.measure.pothole_min_spike_ratio / o.measure.pothole_min_noise_sigma));
+  }
+  f.instances = MeasureDepressions(f.labels, f.relief, g, f.surface, o.measure, measure_noise);
   f.ms_measure = MsSince(t0);
 
   if (o.crack.enabled && !left_image.empty()) {

@@ -132,8 +132,12 @@ void ExtendToRim(cv::Mat& labels, const RoadRelief& r, double rim_depth_m, doubl
       std::nth_element(ring.begin(), mid, ring.end());
       ring_level = level, ring_sigma = 1.4826 * *mid;
     }
-    const double floor_mm = threshold_mm;  // without the ring's noise term
-    threshold_mm = std::max(threshold_mm, ring_level + 3.0 * ring_sigma);
+    // Counted from the ring's level: where the local road model sits 1-2 mm off beside the
+    // instance (car view: the correction interpolated across the excluded damage), a rim
+    // threshold of a few mm above zero grew a 0.5 m² pothole by 60 % into that plateau.
+    const double level_mm = std::max(0.0, ring_level);
+    const double floor_mm = level_mm + threshold_mm;  // without the ring's noise term
+    threshold_mm = level_mm + std::max(threshold_mm, 3.0 * ring_sigma);
     // Candidates: deep (NaN compares false), inside the band, not another instance; keep those
     // connected to the instance.
     const cv::Mat cand = ((depth >= threshold_mm) & (dist <= band) & (lab == 0)) | inst;

@@ -18,13 +18,13 @@ cv::Mat PixelAreaOnRoad(const RoadRelief& relief, const StereoGeometry& geometry
 
 /// Grows each instance of `labels` (in place) into connected pixels deeper below the road than
 /// the rim threshold, within a band of 30 % of the instance's equivalent radius: the threshold
-/// of the unsupervised segmentation stops short of the shallow rim. Rim threshold = the largest
-/// of `rim_depth_m`, `rim_depth_fraction` × the instance's depth (99th percentile) and
-/// median + 3 robust σ of the depth in the ring between one and two bands outside the instance
-/// (local road-model misfit and stereo noise). With `ring_window_px` > 0 (the relief's smoothing
-/// window), whole one-pixel rings outside that then join while their mean depth exceeds the
-/// ring's level by 2 σ of a mean (σ·w/√n) and the first two terms (the wall's shallow outer part,
-/// below the per-pixel noise).
+/// of the unsupervised segmentation stops short of the shallow rim. Rim threshold = the level of
+/// the ring between one and two bands outside the instance (median depth there, if > 0: local
+/// road-model misfit) plus the largest of `rim_depth_m`, `rim_depth_fraction` × the instance's
+/// depth (99th percentile) and 3 robust σ of the ring's depth (stereo noise). With
+/// `ring_window_px` > 0 (the relief's smoothing window), whole one-pixel rings outside that then
+/// join while their mean depth exceeds the ring's level by 2 σ of a mean (σ·w/√n) and the level
+/// plus the first two terms (the wall's shallow outer part, below the per-pixel noise).
 void ExtendToRim(cv::Mat& labels, const RoadRelief& relief, double rim_depth_m, double rim_depth_fraction = 0,
                  int ring_window_px = 0);
 

@@ -14,11 +14,12 @@
 namespace rs {
 
 cv::Mat LocalReliefNoise(const cv::Mat& value, const cv::Mat& valid, double level, int cell, double floor_sigma,
-                         double max_ratio) {
+                         double max_ratio, double quantile) {
   if (value.type() != CV_32FC1 || valid.type() != CV_8UC1 || value.size() != valid.size())
     throw std::invalid_argument("LocalReliefNoise: value must be CV_32F with a CV_8U mask of the same size");
-  if (cell < 4 || !(floor_sigma > 0) || !(max_ratio > 0))
-    throw std::invalid_argument("LocalReliefNoise: cell_px >= 4, floor_sigma > 0 and max_ratio > 0 needed");
+  if (cell < 4 || !(floor_sigma > 0) || !(max_ratio > 0) || !(quantile > 0 && quantile < 1))
+    throw std::invalid_argument("LocalReliefNoise: cell_px >= 4, floor_sigma > 0, max_ratio > 0, 0 < quantile < 1 needed");
+  const bool median = quantile == 0.5;
   const int gw = (value.cols + cell - 1) / cell, gh = (value.rows + cell - 1) / cell;
   const float nan = std::numeric_limits<float>::quiet_NaN();
   cv::Mat grid(gh, gw, CV_32F, cv::Scalar(nan));
@@ -42,8 +43,9 @@ cv::Mat LocalReliefNoise(const cv::Mat& value, const cv::Mat& valid, double leve
       // Road has about half its samples above the level; a cell with far fewer is mostly damage,
       // whose surroundings the local road correction bends: its neighbours' noise is used instead.
       if (up.size() < 20 || up.size() < 0.35 * seen) continue;
-      std::nth_element(up.begin(), up.begin() + up.size() / 2, up.end());
-      grid.ptr<float>(gy)[gx] = static_cast<float>(up[up.size() / 2] / 0.6745);
+      const auto k = up.begin() + static_cast<std::ptrdiff_t>(quantile * double(up.size() - 1) + (median ? 0.5 : 0.0));
+      std::nth_element(up.begin(), k, up.end());
+      grid.ptr<float>(gy)[gx] = static_cast<float>(median ? *k / 0.6745 : *k);
     }
   });
   // Cells without road (obstacles, large damage, no disparity) take their neighbours' noise.

@@ -20,7 +20,18 @@ namespace rs {
 /// level (mostly damage), take their neighbours' value; 3×3 smoothed over the
 /// cells, bilinearly interpolated, and never below `floor_sigma`.
 /// Throws std::invalid_argument on bad types or sizes, cell_px < 4, floor_sigma ≤ 0 or max_ratio ≤ 0.
+/// `quantile` (in (0, 1)) other than 0.5: that quantile of those samples, unscaled, instead of the median
+/// / 0.6745 (e.g. 0.999: how far the road's upward spikes reach, LocalReliefSpikes).
 cv::Mat LocalReliefNoise(const cv::Mat& value, const cv::Mat& valid, double level, int cell_px, double floor_sigma,
-                         double max_ratio = std::numeric_limits<double>::infinity());
+                         double max_ratio = std::numeric_limits<double>::infinity(), double quantile = 0.5);
+
+/// How far the road's matching errors reach: the `quantile` (e.g. 0.999) of the upward
+/// deviations (x − level) per cell, as LocalReliefNoise otherwise. SGM's wrong winners (a
+/// wrong disparity minimum over a ~10 px patch) err either way; upward they cannot be damage,
+/// so their reach above the road bounds what downward ones fake as depressions there.
+inline cv::Mat LocalReliefSpikes(const cv::Mat& value, const cv::Mat& valid, double level, int cell_px,
+                                 double floor_sigma, double max_ratio, double quantile) {
+  return LocalReliefNoise(value, valid, level, cell_px, floor_sigma, max_ratio, quantile);
+}
 
 }  // namespace rs

@@ -36,6 +36,33 @@ TEST(ReliefNoise, Nominal) {
   EXPECT_NEAR(f.at<float>(300, 700), 0.3, 0.03);
 }
 
+// Road at level 30 with σ = 0.1 and, in the right half, SGM-like wrong-winner patches: 9×9 px
+// blocks 0.8 above the road every 48 px (about 3.5 % of the pixels). The median-based noise
+// barely notices them; the 0.999 quantile (LocalReliefSpikes) reports their height there and
+// the Gaussian tail (≈ 3.3 σ = 0.33) on the clean left half.
+TEST(ReliefNoise, Spikes) {
+  cv::Mat value(480, 768, CV_32F), valid(value.size(), CV_8U, cv::Scalar(255));
+  std::mt19937 rng(5);
+  std::normal_distribution<float> n(0.f, 1.f);
+  for (int v = 0; v < value.rows; ++v)
+    for (int u = 0; u < value.cols; ++u) {
+      const bool patch = u >= 384 && u % 48 < 9 && v % 48 < 9;
+      value.at<float>(v, u) = static_cast<float>(30.0 + (patch ? 0.8 : 0.0) + 0.1 * n(rng));
+    }
+  const cv::Mat noise = LocalReliefNoise(value, valid, 30.0, 96, 0.05, 40.0);
+  const cv::Mat spikes = LocalReliefSpikes(value, valid, 30.0, 96, 0.05, 40.0, 0.999);
+  EXPECT_NEAR(noise.at<float>(240, 100), 0.1, 0.01);
+  EXPECT_NEAR(noise.at<float>(240, 650), 0.1, 0.02);          // the median hardly moves
+  EXPECT_NEAR(spikes.at<float>(240, 100), 0.32, 0.06);         // clean: the Gaussian tail
+  EXPECT_GT(spikes.at<float>(240, 650), 0.8);                  // the patches' height and their noise
+  EXPECT_LT(spikes.at<float>(240, 650), 1.2);
+  // The default quantile is the median path, unchanged.
+  const cv::Mat median = LocalReliefNoise(value, valid, 30.0, 96, 0.05, 40.0, 0.5);
+  EXPECT_EQ(cv::norm(median, noise, cv::NORM_INF), 0.0);
+  EXPECT_THROW(LocalReliefSpikes(value, valid, 30.0, 96, 0.05, 40.0, 1.0), std::invalid_argument);
+  EXPECT_THROW(LocalReliefSpikes(value, valid, 30.0, 96, 0.05, 40.0, 0.0), std::invalid_argument);
+}
+
 TEST(ReliefNoise, BadInput) {
   const cv::Mat value(64, 64, CV_32F, cv::Scalar(1)), valid(64, 64, CV_8U, cv::Scalar(255));
   EXPECT_THROW(LocalReliefNoise(value, valid, 0, 2, 0.1), std::invalid_argument);

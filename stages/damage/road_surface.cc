@@ -3,7 +3,6 @@
 #include <Eigen/Dense>
 #include <opencv2/imgproc.hpp>
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_invoke.h>
 
 #include <algorithm>
 #include <array>
@@ -15,6 +14,7 @@
 
 #include "stages/damage/grid_fill.h"
 #include "stages/damage/rect_merge.h"
+#include "stages/damage/relief_smooth.h"
 
 namespace rs {
 namespace {
@@ -323,38 +323,9 @@ void ApplyCorrection(RoadRelief& r, const cv::Mat& corr, const cv::Mat& disparit
   });
 }
 
-// Normalised box filter over valid pixels (invalid pixels stay invalid and do not contribute).
-// Invalid pixels hold 0 in the transformed disparity and NaN in the depth.
-void SmoothRelief(RoadRelief& r, const RoadModelOptions& o) {
-  const cv::Size k(o.relief_smooth_px, o.relief_smooth_px);
-  cv::Mat wsum, depth0(r.depth_below_mm.size(), CV_32F), dsum, tsum;
-  // Depth with invalid (NaN) = 0, in one pass (was clone + patchNaNs).
-  tbb::parallel_for(0, depth0.rows, [&](int v) {
-    const float* x = r.depth_below_mm.ptr<float>(v);
-    float* y = depth0.ptr<float>(v);
-    for (int u = 0; u < depth0.cols; ++u) y[u] = std::isnan(x[u]) ? 0.0f : x[u];
-  });
-  // The three sums are independent (each single-threaded in OpenCV): run them side by side.
-  // Valid-pixel counts summed on the 0/255 mask itself (integer sums: exactly 255 × count,
-  // divided back below; was a float 0/1 copy of the mask).
-  tbb::parallel_invoke(
-      [&] { cv::boxFilter(r.valid_mask, wsum, CV_32F, k, {-1, -1}, false, cv::BORDER_CONSTANT); },
-      [&] { cv::boxFilter(depth0, dsum, CV_32F, k, {-1, -1}, false, cv::BORDER_CONSTANT); },
-      [&] { cv::boxFilter(r.transformed_disparity_px, tsum, CV_32F, k, {-1, -1}, false, cv::BORDER_CONSTANT); });
-  tbb::parallel_for(0, wsum.rows, [&](int v) {
-    const uchar* va = r.valid_mask.ptr<uchar>(v);
-    const float* ws = wsum.ptr<float>(v);
-    const float* ds = dsum.ptr<float>(v);
-    const float* ts = tsum.ptr<float>(v);
-    float* db = r.depth_below_mm.ptr<float>(v);
-    float* td = r.transformed_disparity_px.ptr<float>(v);
-    for (int u = 0; u < wsum.cols; ++u) {
-      if (!va[u]) continue;  // stays NaN / 0
-      const float n = ws[u] / 255.0f;  // exact: ws = 255 × count
-      db[u] = ds[u] / n;
-      td[u] = std::max(1e-3f, ts[u] / n);  // valid stays > 0
-    }
-  });
+// The relief smoothing's window per image row (relief_smooth.h).
+std::vector<cv::Size> SmoothWindows(int rows, const StereoGeometry& g, const RoadSurface& s, const RoadModelOptions& o) {
+  return ReliefSmoothWindows(rows, g, s.normal, o.relief_smooth_px, o.relief_smooth_ground);
 }
 
 }  // namespace
@@ -454,7 +425,9 @@ RoadRelief FinishRoadRelief(RoadRelief r, const cv::Mat& disparity_px, const Ste
   } else {
     r.correction_mm = cv::Mat::zeros(r.depth_below_mm.size(), CV_32F);
   }
-  if (o.relief_smooth_px > 1) SmoothRelief(r, o);
+  if (o.relief_smooth_px > 1)
+    r.smooth_noise_px =
+        SmoothReliefRows(r, SmoothWindows(r.depth_below_mm.rows, g, s, o), 0, o.relief_smooth_edge_sigma);
   return r;
 }
 
@@ -471,7 +444,10 @@ void RefineRoadRelief(RoadRelief& r, const RoadRelief& evaluated, const cv::Mat&
   const cv::Mat changed = c.grid != r.correction_grid_mm;
   cv::Mat cc, stats, centroids;
   const int n = cv::connectedComponentsWithStats(changed, cc, stats, centroids, 8, CV_32S);
-  const int cell = o.local_cell_px, m = o.relief_smooth_px / 2 + 1;
+  const std::vector<cv::Size> windows = SmoothWindows(disparity_px.rows, g, s, o);
+  int m = 1;  // margin: half the largest smoothing window, plus one
+  for (const cv::Size& k : windows) m = std::max(m, std::max(k.width, k.height) / 2 + 1);
+  const int cell = o.local_cell_px;
   const cv::Rect frame({}, disparity_px.size());
   std::vector<cv::Rect> regions;
   for (int i = 1; i < n; ++i) {
@@ -489,7 +465,7 @@ void RefineRoadRelief(RoadRelief& r, const RoadRelief& evaluated, const cv::Mat&
     sub.valid_mask = evaluated.valid_mask(outer);
     sub.obstacle_mask = evaluated.obstacle_mask(outer);
     ApplyCorrection(sub, c.full(outer), disparity_px(outer), outer.tl(), g, s, o);
-    if (o.relief_smooth_px > 1) SmoothRelief(sub, o);
+    if (o.relief_smooth_px > 1) SmoothReliefRows(sub, windows, outer.y, o.relief_smooth_edge_sigma, r.smooth_noise_px);
     const cv::Rect in_sub(inner.tl() - outer.tl(), inner.size());
     sub.transformed_disparity_px(in_sub).copyTo(r.transformed_disparity_px(inner));
     sub.depth_below_mm(in_sub).copyTo(r.depth_below_mm(inner));

@@ -50,6 +50,9 @@ struct RoadRelief {
   /// products above: true road height = quadratic − correction (zeros when off).
   cv::Mat correction_mm;
   cv::Mat correction_grid_mm;  ///< CV_32F per-cell correction (mm) behind correction_mm (empty when off)
+  /// Robust σ of the transformed disparity about its box-smoothed value (px), measured by
+  /// FinishRoadRelief and reused by RefineRoadRelief (0 = not smoothed).
+  double smooth_noise_px = 0;
 };
 
 /// Evaluates the model on every pixel, then (local_cell_px > 0) corrects it locally: per cell,

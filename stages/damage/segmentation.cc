@@ -97,9 +97,10 @@ std::vector<cv::Rect> CandidateRois(const cv::Mat& mask, int pad) {
   return rois;
 }
 
-// Snaps the mask inside `roi` to SLIC superpixel boundaries.
+// Snaps the mask inside `roi` to SLIC superpixel boundaries. `elongation`: road length of a
+// pixel along the column / across it at the roi (1: square pixels on the road).
 void SnapRoiToSuperpixels(cv::Mat& mask, const cv::Mat& z, const cv::Mat& valid, const cv::Rect& roi,
-                          const SegmentOptions& o) {
+                          const SegmentOptions& o, double elongation) {
   // SLIC sees the relief clipped to [-20σ, +5σ] as 8-bit; invalid pixels take the candidate's level
   // so they do not cut superpixels.
   cv::Mat img(roi.size(), CV_8U);
@@ -114,32 +115,49 @@ void SnapRoiToSuperpixels(cv::Mat& mask, const cv::Mat& z, const cv::Mat& valid,
     }
   }
   // Superpixels of 8 px or more are found at half resolution (a quarter of the work; the relief
-  // is box-smoothed over 7 px anyway) and voted on at full resolution.
+  // is box-smoothed over 7 px anyway) and voted on at full resolution. In an oblique view
+  // (elongation ≥ 1.5) the roi is instead resampled by k·√e across and k / √e along the column,
+  // so superpixels of the same pixel count are square on the road: a square 16-px superpixel
+  // spans 0.4 m of road along the view at 6 m from a car, more than a 0.3 m pothole.
   const int k = o.slic_region_size_px >= 8 ? 2 : 1;
+  const double root_e = o.slic_ground && elongation >= 1.5 ? std::sqrt(elongation) : 1.0;
+  const double sx = k * root_e, sy = k / root_e;  // full-resolution pixels per resampled pixel
   cv::Mat small = img;
-  if (k > 1) cv::resize(img, small, cv::Size((roi.width + 1) / 2, (roi.height + 1) / 2), 0, 0, cv::INTER_AREA);
+  if (root_e > 1.0)
+    cv::resize(img, small,
+               cv::Size(std::max(1, static_cast<int>(std::lround(roi.width / sx))),
+                        std::max(1, static_cast<int>(std::lround(roi.height / sy)))),
+               0, 0, cv::INTER_AREA);
+  else if (k > 1)
+    cv::resize(img, small, cv::Size((roi.width + 1) / 2, (roi.height + 1) / 2), 0, 0, cv::INTER_AREA);
   auto slic = cv::ximgproc::createSuperpixelSLIC(small, cv::ximgproc::SLICO, o.slic_region_size_px / k,
                                                  static_cast<float>(o.slic_ruler));
   slic->iterate(3);
   cv::Mat sp;
   slic->getLabels(sp);
   const int n = slic->getNumberOfSuperpixels();
+  // Column and row of the resampled image holding each full-resolution column / row.
+  std::vector<int> col(roi.width), row(roi.height);
+  for (int u = 0; u < roi.width; ++u)
+    col[u] = std::min(root_e > 1.0 ? static_cast<int>(u / sx) : u / k, sp.cols - 1);
+  for (int v = 0; v < roi.height; ++v)
+    row[v] = std::min(root_e > 1.0 ? static_cast<int>(v / sy) : v / k, sp.rows - 1);
   std::vector<int> total(n, 0), hit(n, 0);
   cv::Mat sub = mask(roi);
   for (int v = 0; v < roi.height; ++v) {
-    const int* l = sp.ptr<int>(std::min(v / k, sp.rows - 1));
+    const int* l = sp.ptr<int>(row[v]);
     const uchar* m = sub.ptr<uchar>(v);
     for (int u = 0; u < roi.width; ++u) {
-      const int id = l[std::min(u / k, sp.cols - 1)];
+      const int id = l[col[u]];
       ++total[id];
       hit[id] += m[u] != 0;
     }
   }
   for (int v = 0; v < roi.height; ++v) {
-    const int* l = sp.ptr<int>(std::min(v / k, sp.rows - 1));
+    const int* l = sp.ptr<int>(row[v]);
     uchar* m = sub.ptr<uchar>(v);
     for (int u = 0; u < roi.width; ++u) {
-      const int id = l[std::min(u / k, sp.cols - 1)];
+      const int id = l[col[u]];
       m[u] = hit[id] >= o.superpixel_vote * total[id] ? 255 : 0;
     }
   }
@@ -147,9 +165,14 @@ void SnapRoiToSuperpixels(cv::Mat& mask, const cv::Mat& z, const cv::Mat& valid,
 
 // Snaps the mask to SLIC superpixel boundaries around each group of candidate regions only
 // (work in proportion to the damage, not the frame; disjoint regions run in parallel).
-void SnapToSuperpixels(cv::Mat& mask, const cv::Mat& z, const cv::Mat& valid, const SegmentOptions& o) {
+void SnapToSuperpixels(cv::Mat& mask, const cv::Mat& z, const cv::Mat& valid, const SegmentOptions& o,
+                       const std::vector<double>& row_elongation) {
   const std::vector<cv::Rect> rois = CandidateRois(mask, 2 * o.slic_region_size_px);
-  tbb::parallel_for(size_t(0), rois.size(), [&](size_t i) { SnapRoiToSuperpixels(mask, z, valid, rois[i], o); });
+  tbb::parallel_for(size_t(0), rois.size(), [&](size_t i) {
+    const int centre = rois[i].y + rois[i].height / 2;
+    const double e = centre < static_cast<int>(row_elongation.size()) ? row_elongation[centre] : 1.0;
+    SnapRoiToSuperpixels(mask, z, valid, rois[i], o, e);
+  });
 }
 
 }  // namespace
@@ -319,7 +342,7 @@ DepressionSegmentation SegmentDepressions(const ReliefImage& relief, const Segme
   if (o.morph_radius_px > 0) cv::morphologyEx(seed, seed, cv::MORPH_OPEN, Disk(o.morph_radius_px));
   cv::Mat mask = Hysteresis(seed, grow);
   FillInvalidInside(mask, relief.valid, o.invalid_fill_fraction);
-  if (o.slic_region_size_px > 0) SnapToSuperpixels(mask, z, relief.valid, o);
+  if (o.slic_region_size_px > 0) SnapToSuperpixels(mask, z, relief.valid, o, relief.row_elongation);
   if (o.morph_radius_px > 0) {
     cv::morphologyEx(mask, mask, cv::MORPH_OPEN, Disk(o.morph_radius_px));
     cv::morphologyEx(mask, mask, cv::MORPH_CLOSE, Disk(o.morph_radius_px));

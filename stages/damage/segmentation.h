@@ -9,6 +9,7 @@
 #include <opencv2/core.hpp>
 
 #include <optional>
+#include <vector>
 
 namespace rs {
 
@@ -16,6 +17,9 @@ namespace rs {
 struct ReliefImage {
   cv::Mat value;  ///< CV_32F, in the input's units
   cv::Mat valid;  ///< CV_8U, 255 where the input holds a measurement
+  /// Optional, per row: road length of a pixel along the column / across it (RoadRowElongation);
+  /// with SegmentOptions::slic_ground, superpixels are shaped square on the road. Empty = 1.
+  std::vector<double> row_elongation;
 };
 
 /// Converts an 8/16-bit or float single-channel image. Integer 0 and float

@@ -141,3 +141,45 @@ TEST(SegmentDepressions, Fan2019Dataset3) {
 
 }  // namespace
 }  // namespace rs
+
+namespace rs {
+namespace {
+
+// Two potholes seen from a car at ~6 m, one behind the other: each 100 px wide and 14 px tall on
+// the image (a pixel 3.5× longer on the road along the column than across), 10 px of road
+// between them (~0.2 m). Superpixels square on the image (16 px tall) bridge the gap and merge
+// them into one; shaped square on the road (row_elongation: 8 px tall, 30 px wide) they do not.
+TEST(SegmentDepressions, SuperpixelsShapedOnTheRoadSeparateForeshortenedPotholes) {
+  cv::Mat value(200, 400, CV_32F), truth(200, 400, CV_8U, cv::Scalar(0));
+  std::mt19937 rng(11);
+  std::normal_distribution<float> noise(0.f, 0.01f);
+  for (int v = 0; v < value.rows; ++v)
+    for (int u = 0; u < value.cols; ++u) {
+      double x = 30.0 + noise(rng);
+      for (const int vc : {88, 112}) {
+        const double q = std::hypot((u - 203) / 50.0, (v - vc) / 7.0);
+        const double w = q < 1 ? std::min(1.0, (1 - q) / 0.3) : 0.0;
+        x -= 2.0 * w * w * (3 - 2 * w);
+        if (q < 1) truth.at<uchar>(v, u) = vc == 88 ? 1 : 2;
+      }
+      value.at<float>(v, u) = static_cast<float>(x);
+    }
+  const ReliefImage relief{value, cv::Mat(value.size(), CV_8U, cv::Scalar(255)), std::vector<double>(200, 3.5)};
+  SegmentOptions o;
+  const DepressionSegmentation ground = SegmentDepressions(relief, o);
+  o.slic_ground = false;
+  const DepressionSegmentation square = SegmentDepressions(relief, o);
+  std::printf("regions: superpixels shaped on the road %d, square on the image %d\n", ground.count, square.count);
+  EXPECT_EQ(square.count, 1);  // merged
+  ASSERT_EQ(ground.count, 2);
+  for (int id = 1; id <= 2; ++id) {  // each region mostly on one pothole
+    const cv::Mat found = ground.labels == id;
+    const int t = truth.at<uchar>(cv::boundingRect(found).y + cv::boundingRect(found).height / 2, 203);
+    ASSERT_GT(t, 0);
+    const cv::Mat tm = truth == t;
+    EXPECT_GE(cv::countNonZero(found & tm) / double(cv::countNonZero(found | tm)), 0.6) << "region " << id;
+  }
+}
+
+}  // namespace
+}  // namespace rs

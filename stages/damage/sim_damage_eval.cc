@@ -5,6 +5,9 @@
 #include "formats/stereo/calibration_yaml.h"
 #include "formats/trajectory/tum_trajectory.h"
 #include "stages/damage/damage_output.h"
+#include "stages/damage/measure.h"
+#include "stages/simulate/road_scene.h"
+#include "stages/simulate/simulation_options.h"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -57,15 +60,29 @@ std::map<int, TruthDamage> ReadTruthDamages(const fs::path& path) {
   return out;
 }
 
-std::vector<TruthObstacle> ReadObstacles(const fs::path& path) {
+nlohmann::json ReadJson(const fs::path& path) {
   std::ifstream in(path);
   if (!in) throw InputError(InputLocation::File(path.string()), "cannot open");
-  nlohmann::json j;
   try {
-    j = nlohmann::json::parse(in);
+    return nlohmann::json::parse(in);
   } catch (const nlohmann::json::parse_error& e) {
     throw InputError(InputLocation::Byte(path.string(), e.byte), e.what());
   }
+}
+
+// The simulation's options (scene.json "options"): the intact road's geometry.
+SimulationOptions ReadSceneOptions(const fs::path& path, const nlohmann::json& j) {
+  if (!j.contains("options") || !j["options"].is_object())
+    throw InputError(InputLocation::File(path.string()), "no simulation options");
+  try {
+    const auto& table = SimulationOptions::Table();
+    return table.FromJson(table.Merge(j["options"], "simulate"));
+  } catch (const std::exception& e) {
+    throw InputError(InputLocation::File(path.string()), e.what());
+  }
+}
+
+std::vector<TruthObstacle> ReadObstacles(const fs::path& path, const nlohmann::json& j) {
   std::vector<TruthObstacle> out;
   if (!j.contains("obstacles")) return out;
   for (const auto& o : j["obstacles"]) {
@@ -163,7 +180,9 @@ SimDamageEvaluation EvaluateSimulatedDamage(const fs::path& dir, const SimDamage
   const StereoGeometry g{calib.left.fx, calib.left.cx, calib.left.cy, calib.BaselineM()};
   const std::map<int, TruthDamage> truth = ReadTruthDamages(dir / "truth/damages.geojson");
   const Trajectory traj = ReadTumTrajectory(dir / "truth/trajectory.tum");
-  const std::vector<TruthObstacle> obstacles = ReadObstacles(dir / "truth/scene.json");
+  const nlohmann::json scene = ReadJson(dir / "truth/scene.json");
+  const std::vector<TruthObstacle> obstacles = ReadObstacles(dir / "truth/scene.json", scene);
+  const sim::RoadGeometry road(ReadSceneOptions(dir / "truth/scene.json", scene));
 
   std::vector<std::string> names;
   for (const auto& e : fs::directory_iterator(dir / "left"))
@@ -175,7 +194,8 @@ SimDamageEvaluation EvaluateSimulatedDamage(const fs::path& dir, const SimDamage
 
   SimDamageEvaluation r;
   std::vector<double> steps[4];
-  std::vector<double> ms_damage, cpu_damage, ms_disp, road_abs_mm, depth_mm, area_pct, volume_pct;
+  std::vector<double> ms_damage, cpu_damage, ms_disp, road_abs_mm, depth_mm, visible_depth_mm, area_pct, volume_pct,
+      visible_volume_pct;
   int within = 0, severity_ok = 0;
   double sigma_sum = 0, valid_sum = 0;
   std::set<int> unique;
@@ -213,7 +233,8 @@ SimDamageEvaluation EvaluateSimulatedDamage(const fs::path& dir, const SimDamage
 
     // Overlaps, areas, border contact, obstacle share: one pass over the frame.
     std::map<int, long long> area_p, area_t, on_damage_p, on_obstacle_p;
-    std::map<int, double> z_sum_t;
+    std::map<int, double> z_sum_t, z_max_t, visible_depth_t, visible_volume_t;
+    const Eigen::Vector3d cam = T.translation();
     std::map<std::pair<int, int>, long long> inter;
     std::set<int> border_p, border_t;
     const cv::Mat road_ok = fd.relief.valid_mask & (fd.relief.obstacle_mask == 0) & (obstacle == 0);
@@ -226,8 +247,42 @@ SimDamageEvaluation EvaluateSimulatedDamage(const fs::path& dir, const SimDamage
         const bool edge = edge_row || u == 0 || u == masks.cols - 1;
         if (t) {
           ++area_t[t];
-          if (truth_disp.at<float>(v, u) > 0) z_sum_t[t] += g.f_px * g.baseline_m / truth_disp.at<float>(v, u);
+          if (const float d = truth_disp.at<float>(v, u); d > 0) {
+            const double z = g.f_px * g.baseline_m / d;
+            z_sum_t[t] += z;
+            z_max_t[t] = std::max(z_max_t[t], z);
+            // Depth of the seen surface point below the intact road.
+            const Eigen::Vector3d p = WorldPoint(g, T, u, v, d);
+            double s_road, l_road;
+            road.ToRoad(p.x(), p.y(), &s_road, &l_road);
+            const double below = road.IntactZ(s_road, l_road) - p.z();
+            visible_depth_t[t] = std::max(visible_depth_t[t], below);
+            // The pixel's area on the intact road: where its ray meets the road (Newton steps
+            // on the ray parameter, the road's slope is small), Z³/(f²·h) with h the camera's
+            // height above the road's tangent plane there.
+            const Eigen::Vector3d ray = p - cam;
+            double lambda = 1, dz_ds = 0, dz_dl = 0, cos_h = 1, sin_h = 0;
+            Eigen::Vector3d q = p;
+            for (int it = 0; it < 4; ++it) {
+              q = cam + lambda * ray;
+              road.ToRoad(q.x(), q.y(), &s_road, &l_road);
+              lambda -= (q.z() - road.IntactZ(s_road, l_road)) / ray.z();
+            }
+            q = cam + lambda * ray;
+            road.ToRoad(q.x(), q.y(), &s_road, &l_road, &cos_h, &sin_h);
+            const double zq = road.IntactZ(s_road, l_road, &dz_ds, &dz_dl);
+            const Eigen::Vector2d grad = dz_ds * Eigen::Vector2d(cos_h, sin_h) + dz_dl * Eigen::Vector2d(-sin_h, cos_h);
+            const double h = (cam.z() - zq - grad.dot(cam.head<2>() - q.head<2>())) / std::sqrt(1 + grad.squaredNorm());
+            const double z_cam = lambda * z;
+            if (h > 0) visible_volume_t[t] += std::max(0.0, below) * z_cam * z_cam * z_cam / (g.f_px * g.f_px * h);
+          }
           if (edge) border_t.insert(t);
+          // Hidden in part behind a nearer obstacle (a parked car): cut like at the border.
+          if (!edge && !border_t.count(t)) {
+            const float d = truth_disp.at<float>(v, u);
+            for (const cv::Point n : {cv::Point(u - 1, v), cv::Point(u + 1, v), cv::Point(u, v - 1), cv::Point(u, v + 1)})
+              if (obstacle.at<uchar>(n) && truth_disp.at<float>(n) > d) border_t.insert(t);
+          }
         }
         if (p) {
           ++area_p[p];
@@ -243,11 +298,20 @@ SimDamageEvaluation EvaluateSimulatedDamage(const fs::path& dir, const SimDamage
         }
       }
     }
-    auto scored = [&](int t) {
+    // Scored: potholes wide enough, wholly in the frame and in the analysed range (a pothole
+    // reaching beyond it is cut like one at the image border), deep enough to be confirmed at
+    // their range by the stage's stated σ_Z rule.
+    auto in_view = [&](int t) {
       const auto it = truth.find(t);
       return it != truth.end() && it->second.type == "pothole" && it->second.mean_diameter_m >= o.min_diameter_m &&
-             !border_t.count(t) && z_sum_t[t] / area_t[t] <= max_range;
+             !border_t.count(t) && z_max_t[t] <= max_range;
     };
+    auto confirmable = [&](int t) {
+      const double sigma_z = StereoDepthSigma(z_sum_t[t] / area_t[t], o.damage.measure.sigma_disparity_px, g);
+      return !o.require_confirmable_depth ||
+             truth.at(t).max_depth_m >= o.damage.measure.pothole_min_depth_sigma * sigma_z;
+    };
+    auto scored = [&](int t) { return in_view(t) && confirmable(t); };
     std::map<int, const DamageInstance*> pothole_det;
     for (const auto& d : fd.instances) {
       if (on_obstacle_p[d.id] * 2 >= area_p[d.id] && area_p[d.id] > 0) ++r.obstacle_detections;
@@ -286,13 +350,14 @@ SimDamageEvaluation EvaluateSimulatedDamage(const fs::path& dir, const SimDamage
       }
       ++r.false_positives;
       const cv::Rect box = cv::boundingRect(fd.labels == p);
-      r.false_detections.push_back(fmt::format("{} #{}: {:.4f} m2, {:.1f} mm deep, {:.0f} % on damage, bbox {}x{}+{}+{}",
-                                               name, p, d->area_m2, 1000 * d->max_depth_m,
+      r.false_detections.push_back(fmt::format("{} #{}: {:.4f} m2, {:.1f} mm deep (mean {:.1f}), Z {:.1f} m, {:.0f} % on damage, bbox {}x{}+{}+{}",
+                                               name, p, d->area_m2, 1000 * d->max_depth_m, 1000 * d->mean_depth_m, d->range_m,
                                                100.0 * on_damage_p[p] / area_p[p], box.width, box.height, box.x,
                                                box.y));
       debug_frame = true;
     }
     for (const auto& [t, n] : area_t) {
+      if (in_view(t) && !confirmable(t)) ++r.unconfirmable;
       if (!scored(t)) continue;
       const TruthDamage& td = truth.at(t);
       PotholeObservation ob;
@@ -300,6 +365,8 @@ SimDamageEvaluation EvaluateSimulatedDamage(const fs::path& dir, const SimDamage
       ob.truth_max_depth_m = td.max_depth_m, ob.truth_area_m2 = td.area_m2, ob.truth_volume_m3 = td.volume_m3;
       ob.truth_severity = td.severity;
       ob.range_m = z_sum_t[t] / n;
+      ob.truth_visible_depth_m = visible_depth_t[t];
+      ob.truth_visible_volume_m3 = visible_volume_t[t];
       unique.insert(t);
       if (const auto m = match_of_truth.find(t); m != match_of_truth.end()) {
         const DamageInstance& d = *pothole_det.at(m->second.first);
@@ -309,6 +376,10 @@ SimDamageEvaluation EvaluateSimulatedDamage(const fs::path& dir, const SimDamage
         ++r.detected;
         const double de = d.max_depth_m - td.max_depth_m;
         depth_mm.push_back(1000.0 * de);
+        visible_depth_mm.push_back(1000.0 * (d.max_depth_m - ob.truth_visible_depth_m));
+        r.occluded += td.max_depth_m - ob.truth_visible_depth_m > 0.010;
+        if (ob.truth_visible_volume_m3 > 0)
+          visible_volume_pct.push_back(100.0 * (d.volume_m3 - ob.truth_visible_volume_m3) / ob.truth_visible_volume_m3);
         area_pct.push_back(100.0 * (d.area_m2 - td.area_m2) / td.area_m2);
         volume_pct.push_back(100.0 * (d.volume_m3 - td.volume_m3) / td.volume_m3);
         within += std::abs(de) <= 2.0 * d.sigma_depth_m;
@@ -348,6 +419,8 @@ SimDamageEvaluation EvaluateSimulatedDamage(const fs::path& dir, const SimDamage
   const int tp = r.detections - r.ignored_detections - r.false_positives;
   r.precision = tp + r.false_positives > 0 ? double(tp) / (tp + r.false_positives) : 0.0;
   r.depth_error_mm = ComputeDamageErrorStats(depth_mm);
+  r.visible_depth_error_mm = ComputeDamageErrorStats(visible_depth_mm);
+  r.visible_volume_error_pct = ComputeDamageErrorStats(visible_volume_pct);
   r.area_error_pct = ComputeDamageErrorStats(area_pct);
   r.volume_error_pct = ComputeDamageErrorStats(volume_pct);
   if (r.detected > 0) {
@@ -373,19 +446,21 @@ std::string SimDamageEvaluation::Report() const {
   };
   std::string s = fmt::format(
       "{} frames {}x{}, disparity valid {:.1f} %, scored range <= {:.1f} m\n"
-      "potholes scored: {} observations of {} potholes; recall {:.3f} ({}/{})\n"
+      "potholes scored: {} observations of {} potholes; recall {:.3f} ({}/{}); in view but below the sigma_Z rule: {}\n"
       "pothole detections {}: false {}, on unscored damage {}; precision {:.3f}\n"
       "obstacle pixels reported as damage: {} detections\n"
       "max depth error: {}; within 2 sigma_Z {:.1f} % (mean sigma_Z {:.1f} mm)\n"
-      "area error: {}\nvolume error: {}\n"
+      "max depth error against the depth visible in the frame: {}; floor hidden (> 10 mm) in {} matches\n"
+      "area error: {}\nvolume error: {}\nvolume error against the volume visible in the frame: {}\n"
       "severity (ASTM vs truth) agreement {:.1f} %\n"
       "road model: median |true road - fitted| {:.2f} mm\n"
       "time per frame: DetectDamage median {:.1f} ms wall (max {:.1f}), {:.1f} ms CPU (road {:.1f}, segment {:.1f}, measure {:.1f}, cracks {:.1f}); "
       "disparity median {:.1f} ms",
       frames, width, height, 100 * disparity_valid_fraction, max_range_m, observations.size(), unique_potholes, recall, detected,
-      observations.size(), detections, false_positives, ignored_detections, precision, obstacle_detections,
-      stats(depth_error_mm, " mm"), 100 * depth_within_2sigma, mean_sigma_depth_mm, stats(area_error_pct, " %"),
-      stats(volume_error_pct, " %"), 100 * severity_agreement, road_median_abs_mm, ms_damage_median, ms_damage_max,
+      observations.size(), unconfirmable, detections, false_positives, ignored_detections, precision, obstacle_detections,
+      stats(depth_error_mm, " mm"), 100 * depth_within_2sigma, mean_sigma_depth_mm, stats(visible_depth_error_mm, " mm"),
+      occluded, stats(area_error_pct, " %"),
+      stats(volume_error_pct, " %"), stats(visible_volume_error_pct, " %"), 100 * severity_agreement, road_median_abs_mm, ms_damage_median, ms_damage_max,
       cpu_ms_damage_median, ms_road_median, ms_segment_median, ms_measure_median, ms_cracks_median,
       ms_disparity_median);
   return s;

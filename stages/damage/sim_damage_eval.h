@@ -24,6 +24,10 @@ struct SimDamageEvalOptions {
   /// Only potholes whose mean camera depth (truth) is nearer are scored; 0 = the damage stage's
   /// analysed range in each frame (FrameDamage::analysed_range_m).
   double max_range_m = 0;
+  /// Only potholes whose true max depth reaches damage.measure.pothole_min_depth_sigma × σ_Z at
+  /// their range (σ_Z with damage.measure.sigma_disparity_px) are scored: shallower ones are by
+  /// the stage's stated rule not confirmable there (see docs/stages/damage.md).
+  bool require_confirmable_depth = true;
   int frame_step = 1;                ///< evaluate every n-th frame
   int max_frames = 0;                ///< 0 = all
   double obstacle_margin_m = 0.05;   ///< truth obstacle volume grown by this much
@@ -42,6 +46,14 @@ struct PotholeObservation {
   double truth_max_depth_m = 0, truth_area_m2 = 0, truth_volume_m3 = 0;
   std::string truth_severity;  ///< "L", "M", "H"
   double range_m = 0;          ///< mean camera depth Z of the pothole's pixels (truth disparity)
+  /// Deepest point of the pothole seen in this frame: largest depth below the intact road of
+  /// its truth-disparity points. Less than truth_max_depth_m where the near rim hides the floor
+  /// (oblique views): no single frame can measure more.
+  double truth_visible_depth_m = 0;
+  /// Volume of the surface seen in this frame: Σ over the mask's pixels of the seen point's depth
+  /// below the intact road × the pixel's area on the intact road (the stage's own volume model
+  /// applied to the truth). Less than truth_volume_m3 where the floor is hidden.
+  double truth_visible_volume_m3 = 0;
   double max_depth_m = kUnknown, area_m2 = kUnknown, volume_m3 = kUnknown, sigma_depth_m = kUnknown;
   SeverityLevel astm = SeverityLevel::kNone;
 };
@@ -67,6 +79,10 @@ struct SimDamageEvaluation {
   int obstacle_detections = 0; ///< detections of any type with ≥ 50 % of their pixels on an obstacle
   double recall = 0, precision = 0;
   DamageErrorStats depth_error_mm;     ///< measured − truth max depth, mm
+  DamageErrorStats visible_depth_error_mm;  ///< measured − truth depth visible in the frame, mm
+  DamageErrorStats visible_volume_error_pct;  ///< (measured − visible truth volume) / visible truth volume, %
+  int occluded = 0;  ///< matched observations whose visible depth is > 10 mm less than the true depth
+  int unconfirmable = 0;  ///< truth potholes in range left unscored: shallower than the σ_Z rule allows
   DamageErrorStats area_error_pct;     ///< (measured − truth) / truth area, %
   DamageErrorStats volume_error_pct;   ///< (measured − truth) / truth volume, %
   double depth_within_2sigma = 0;  ///< share of matches with |depth error| ≤ 2 σ_Z

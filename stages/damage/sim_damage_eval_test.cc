@@ -101,10 +101,42 @@ TEST(SimDamageEval, ObstaclesTruthDisparity) {
   EXPECT_EQ(r.obstacle_detections, 0);
   EXPECT_LE(r.road_median_abs_mm, 1.0);
 }
-// With our own disparity the bounds are not met yet (stereo noise and mismatches, see
-// docs/stages/damage.md); run with --gtest_also_run_disabled_tests.
-TEST(SimDamageEval, DISABLED_DoneWhenComputedDisparity) {
-  ExpectDoneWhen(EvaluateSimulatedDamage(RenderSmall("drone-low", 20, 3, true), SimDamageEvalOptions()));
+// car (oblique, camera 1.5 m high, pitched 15°; 20 frames at 3 Hz, 60 potholes/100 m: 22
+// observations of 16 potholes at 2.8-7.4 m, ~8 s CPU): the Done-when bounds that hold are
+// asserted, the others guarded at the measured level. Measured: recall 0.955 (21/22), precision
+// 0.955 (one fragment of the 0.07 m² pothole beside the kerb it misses), severity 100 %, no
+// obstacle, road model 0.09 mm, area |error| ≤ 11.5 % (bound 10 %). Against what the frame
+// shows (the simulator's surface seen through the truth disparity): depth ≤ 5.5 mm, volume
+// ≤ 9.9 %; against the true max depth and volume ≤ 53 mm and ≤ 69 % (bounds 10 mm, 15 %): at
+// 5-7 m the near rim hides the floor of deep potholes (grazing angle 12-17°), which no single
+// frame measures (docs/stages/damage.md). Before (image-square smoothing and superpixels, the
+// evaluator as then): recall 0.741, precision 0.870, area ≤ 68 %.
+TEST(SimDamageEval, CarTruthDisparity) {
+  SimDamageEvalOptions o;
+  o.use_truth_disparity = true;
+  const SimDamageEvaluation r = EvaluateSimulatedDamage(RenderSmall("car", 20, 3, true), o);
+  std::cout << r.Report() << "\n";
+  ASSERT_GE(r.observations.size(), 15u);
+  EXPECT_GE(r.recall, 0.95);
+  EXPECT_GE(r.precision, 0.95);
+  EXPECT_LE(r.visible_depth_error_mm.max_abs, 10.0);
+  EXPECT_LE(r.visible_volume_error_pct.max_abs, 15.0);
+  EXPECT_LE(r.depth_error_mm.max_abs, 60.0);    // occlusion: guard only
+  EXPECT_LE(r.volume_error_pct.max_abs, 75.0);  // occlusion: guard only
+  EXPECT_LE(r.area_error_pct.max_abs, 13.0);
+  EXPECT_GE(r.severity_agreement, 0.95);
+  EXPECT_EQ(r.obstacle_detections, 0);
+  EXPECT_LE(r.road_median_abs_mm, 1.0);
+}
+
+// The Done-when bounds on the full pipeline (our GPT-SGM disparity, then the damage stage),
+// drone-low at full resolution. Measured: recall 1.0, precision 1.0, |depth error| <= 5.1 mm,
+// |area error| <= 8.4 %, |volume error| <= 9.3 %, severity 100 %. (obstacles and car with our
+// disparity do not meet the bounds yet: docs/stages/damage.md.)
+TEST(SimDamageEval, DoneWhenComputedDisparityDroneLow) {
+  const SimDamageEvaluation r = EvaluateSimulatedDamage(RenderSmall("drone-low", 20, 3, true), SimDamageEvalOptions());
+  std::cout << r.Report() << "\n";
+  ExpectDoneWhen(r);
 }
 
 TEST(SimDamageEval, DamageErrorStats) {
@@ -127,6 +159,8 @@ TEST(SimDamageEval, Benchmark) {
   if (const char* step = std::getenv("ROADSURVEY_SIM_EVAL_STEP")) o.frame_step = std::atoi(step);
   o.use_truth_disparity = std::getenv("ROADSURVEY_SIM_EVAL_TRUTH") != nullptr;
   o.disparity.road.quadratic = std::getenv("ROADSURVEY_SIM_EVAL_QUADRATIC") != nullptr;  // cambered road model
+  // Also score potholes shallower than the stage's σ_Z rule allows at their range.
+  o.require_confirmable_depth = std::getenv("ROADSURVEY_SIM_EVAL_ALL_DEPTHS") == nullptr;
   if (const char* range = std::getenv("ROADSURVEY_SIM_EVAL_MAX_RANGE")) o.max_range_m = std::atof(range);
   if (const char* n = std::getenv("ROADSURVEY_SIM_EVAL_MAX_FRAMES")) o.max_frames = std::atoi(n);
   if (const char* debug = std::getenv("ROADSURVEY_SIM_EVAL_DEBUG")) o.debug_dir = debug;
@@ -143,11 +177,11 @@ TEST(SimDamageEval, Benchmark) {
             << r.Report() << "\n";
   if (std::getenv("ROADSURVEY_SIM_EVAL_VERBOSE"))
     for (const auto& ob : r.observations)
-      std::cout << fmt::format("  {} Z {:.1f} m id {} det {} iou {:.2f} depth {:.1f}/{:.1f} mm area {:.4f}/{:.4f} vol {:.6f}/{:.6f} "
-                               "sev {}/{}\n",
+      std::cout << fmt::format("  {} Z {:.1f} m id {} det {} iou {:.2f} depth {:.1f}/{:.1f} (visible {:.1f}) mm area {:.4f}/{:.4f} "
+                               "vol {:.6f}/{:.6f} (visible {:.6f}) sev {}/{}\n",
                                ob.frame, ob.range_m, ob.truth_id, ob.detected, ob.iou, 1000 * ob.max_depth_m,
-                               1000 * ob.truth_max_depth_m, ob.area_m2, ob.truth_area_m2, ob.volume_m3,
-                               ob.truth_volume_m3, SeverityLevelName(ob.astm), ob.truth_severity);
+                               1000 * ob.truth_max_depth_m, 1000 * ob.truth_visible_depth_m, ob.area_m2, ob.truth_area_m2, ob.volume_m3,
+                               ob.truth_volume_m3, ob.truth_visible_volume_m3, SeverityLevelName(ob.astm), ob.truth_severity);
   if (std::getenv("ROADSURVEY_SIM_EVAL_VERBOSE"))
     for (const auto& f : r.false_detections) std::cout << "  false: " << f << "\n";
 }

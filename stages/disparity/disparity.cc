@@ -67,6 +67,12 @@ void DisparityParams::Check() const {
     fail("fill_min_neighbours", std::to_string(fill_min_neighbours), "0 <= fill_min_neighbours <= 8");
   if (refine_window < 0 || (refine_window > 0 && refine_window % 2 == 0) || refine_window > 31)
     fail("refine_window", std::to_string(refine_window), "refine_window = 0 or odd, <= 31");
+  if (refine_smooth_window < 0 || (refine_smooth_window > 0 && refine_smooth_window % 2 == 0) || refine_smooth_window > 63)
+    fail("refine_smooth_window", std::to_string(refine_smooth_window), "refine_smooth_window = 0 or odd, <= 63");
+  if (!(refine_smooth_agree_px >= 0))
+    fail("refine_smooth_agree_px", Num(refine_smooth_agree_px), "refine_smooth_agree_px >= 0");
+  if (!(refine_max_coherence > 0 && refine_max_coherence <= 1))
+    fail("refine_max_coherence", Num(refine_max_coherence), "0 < refine_max_coherence <= 1");
   if (speckle_window_size < 0) fail("speckle_window_size", std::to_string(speckle_window_size), "speckle_window_size >= 0");
   if (!(gpt_min_valid_fraction >= 0 && gpt_min_valid_fraction <= 1))
     fail("gpt_min_valid_fraction", Num(gpt_min_valid_fraction), "0 <= gpt_min_valid_fraction <= 1");
@@ -425,22 +431,12 @@ void AddRow(const float* __restrict row, int W, float sign, float* __restrict co
   for (int u = 0; u < W; ++u) col[u] += sign * row[u];
 }
 
-}  // namespace
-
-void RefineSubpixel(const cv::Mat& ref, const cv::Mat& target, cv::Mat* disparity, const cv::Mat& valid, int window) {
-  if (window <= 0) return;
-  const int W = ref.cols, H = ref.rows, r = window / 2;
-  // Texture the window needs: a mean squared slope of 4 (2 grey levels per px; G = 24 x slope).
-  // Below it (inside a painted line, a shadow's flat core) the intensities say nothing and SGM's
-  // value stays.
-  constexpr float kMinMeanWeight = 4.0f * 24.0f * 24.0f;
-  const float min_weight = kMinMeanWeight * static_cast<float>(window * window);
-  // High-pass both images (minus a local mean): the cameras' gain and vignetting differ, and an
-  // intensity offset between the views biases an intensity residual (the census SGM ran on is
-  // immune to it, this least-squares step is not: without it the refinement was worse than SGM).
-  thread_local cv::Mat tls_ref_hp, tls_target_hp;  // reused across frames (page faults)
-  cv::Mat &ref_hp = tls_ref_hp, &target_hp = tls_target_hp;
-  tbb::parallel_invoke([&] { HighPass(ref, &ref_hp); }, [&] { HighPass(target, &target_hp); });
+// One refinement pass over the whole map with a window x window window (see RefineSubpixel).
+// `terms`: the pixels whose intensities enter the sums (valid ones, possibly fewer); `valid`: the
+// pixels refined.
+void RefinePass(const cv::Mat& ref_hp, const cv::Mat& target_hp, cv::Mat* disparity, const cv::Mat& valid,
+                const cv::Mat& terms, int window, float min_weight) {
+  const int W = ref_hp.cols, H = ref_hp.rows, r = window / 2;
   // Bands of rows, each on its own: the terms of the band's rows and r rows either side (the
   // window's reach; recomputed by both neighbouring bands — cheaper than a second parallel pass
   // over full-size maps), column sums sliding down the band, then each row's horizontal sums. The
@@ -455,7 +451,7 @@ void RefineSubpixel(const cv::Mat& ref, const cv::Mat& target, cv::Mat* disparit
     std::vector<float> num(static_cast<size_t>(y1 - y0) * W), den(num.size());
     std::vector<int> k_row(W);
     for (int y = y0; y < y1; ++y)
-      RefineTermsRow(ref_hp.ptr<int16_t>(y), target_hp.ptr<int16_t>(y), valid.ptr<uint8_t>(y), sgm.ptr<float>(y), W,
+      RefineTermsRow(ref_hp.ptr<int16_t>(y), target_hp.ptr<int16_t>(y), terms.ptr<uint8_t>(y), sgm.ptr<float>(y), W,
                      k_row.data(), num.data() + static_cast<size_t>(y - y0) * W, den.data() + static_cast<size_t>(y - y0) * W);
     std::vector<float> col_n(W + 2 * r, 0.0f), col_d(W + 2 * r, 0.0f), sum_n(W), sum_d(W);
     float *cn = col_n.data() + r, *cd = col_d.data() + r;
@@ -470,6 +466,106 @@ void RefineSubpixel(const cv::Mat& ref, const cv::Mat& target, cv::Mat* disparit
       BoxRow(cn, W, r, sum_n.data());
       BoxRow(cd, W, r, sum_d.data());
       RefineApplyRow(sum_n.data(), sum_d.data(), valid.ptr<uint8_t>(v), W, min_weight, disparity->ptr<float>(v));
+    }
+  });
+}
+
+// Where one straight, mostly vertical edge dominates the window x window window of `img` (CV_8U,
+// 255): structure-tensor coherence (l1 - l2) / (l1 + l2) above max_coherence (~0.3 on random
+// texture, -> 1 for a single edge) with sum gx^2 >= 2 sum gy^2 (horizontal edges, and texture
+// foreshortened along the rows, give the row-wise matching little and are left alone).
+void EdgeDominated(const cv::Mat& img, int window, float max_coherence, cv::Mat* out) {
+  thread_local cv::Mat tls[5];  // reused (page faults); named by reference: other threads have their own
+  cv::Mat &gx = tls[0], &gy = tls[1], &xx = tls[2], &yy = tls[3], &xy = tls[4];
+  cv::spatialGradient(img, gx, gy, 3, cv::BORDER_REPLICATE);  // Sobel 3x3, CV_16S
+  xx.create(img.size(), CV_32F), yy.create(img.size(), CV_32F), xy.create(img.size(), CV_32F);
+  tbb::parallel_for(tbb::blocked_range<int>(0, img.rows, 32), [&](const tbb::blocked_range<int>& r) {
+    for (int v = r.begin(); v < r.end(); ++v) {
+      const int16_t *x = gx.ptr<int16_t>(v), *y = gy.ptr<int16_t>(v);
+      float *a = xx.ptr<float>(v), *b = yy.ptr<float>(v), *c = xy.ptr<float>(v);
+      for (int u = 0; u < img.cols; ++u) {
+        const float fx = x[u], fy = y[u];
+        a[u] = fx * fx, b[u] = fy * fy, c[u] = fx * fy;
+      }
+    }
+  });
+  const cv::Size box(window, window);
+  tbb::parallel_invoke([&] { cv::boxFilter(xx, xx, -1, box, cv::Point(-1, -1), true, cv::BORDER_REPLICATE); },
+                       [&] { cv::boxFilter(yy, yy, -1, box, cv::Point(-1, -1), true, cv::BORDER_REPLICATE); },
+                       [&] { cv::boxFilter(xy, xy, -1, box, cv::Point(-1, -1), true, cv::BORDER_REPLICATE); });
+  out->create(img.size(), CV_8U);
+  // (l1 - l2)^2 > c^2 (l1 + l2)^2, without the square root.
+  const float c2 = max_coherence * max_coherence;
+  tbb::parallel_for(tbb::blocked_range<int>(0, img.rows, 32), [&](const tbb::blocked_range<int>& r) {
+    for (int v = r.begin(); v < r.end(); ++v) {
+      const float *a = xx.ptr<float>(v), *b = yy.ptr<float>(v), *c = xy.ptr<float>(v);
+      uint8_t* o = out->ptr<uint8_t>(v);
+      for (int u = 0; u < img.cols; ++u) {
+        const float d = a[u] - b[u], t = a[u] + b[u];
+        const bool edge = (d * d + 4 * c[u] * c[u] > c2 * t * t) & (a[u] >= 2 * b[u]) & (t > 0);
+        o[u] = static_cast<uint8_t>(0 - static_cast<int>(edge));
+      }
+    }
+  });
+}
+
+}  // namespace
+
+void RefineSubpixel(const cv::Mat& ref, const cv::Mat& target, cv::Mat* disparity, const cv::Mat& valid, int window) {
+  SubpixelRefineOptions o;
+  o.window = window;
+  RefineSubpixel(ref, target, disparity, valid, o);
+}
+
+void RefineSubpixel(const cv::Mat& ref, const cv::Mat& target, cv::Mat* disparity, const cv::Mat& valid,
+                    const SubpixelRefineOptions& o) {
+  if (o.window <= 0) return;
+  // Texture the window needs: a mean squared slope of 4 (2 grey levels per px; G = 24 x slope).
+  // Below it (inside a painted line, a shadow's flat core) the intensities say nothing and SGM's
+  // value stays.
+  constexpr float kMinMeanWeight = 4.0f * 24.0f * 24.0f;
+  auto min_weight = [](int w) { return kMinMeanWeight * static_cast<float>(w * w); };
+  const bool smooth = o.smooth_window > o.window, edges = smooth && o.max_edge_coherence < 1;
+  // High-pass both images (minus a local mean): the cameras' gain and vignetting differ, and an
+  // intensity offset between the views biases an intensity residual (the census SGM ran on is
+  // immune to it, this least-squares step is not: without it the refinement was worse than SGM).
+  thread_local cv::Mat tls_ref_hp, tls_target_hp;  // reused across frames (page faults)
+  cv::Mat &ref_hp = tls_ref_hp, &target_hp = tls_target_hp;
+  thread_local cv::Mat tls_edge;
+  cv::Mat& edge = tls_edge;
+  tbb::parallel_invoke([&] { HighPass(ref, &ref_hp); }, [&] { HighPass(target, &target_hp); },
+                       [&] {
+                         if (edges) EdgeDominated(ref, o.window, static_cast<float>(o.max_edge_coherence), &edge);
+                       });
+  thread_local cv::Mat tls_sgm_in, tls_smooth, tls_terms;
+  cv::Mat &sgm_in = tls_sgm_in, &smoothed = tls_smooth, &terms = tls_terms;
+  if (smooth) disparity->copyTo(sgm_in), disparity->copyTo(smoothed);
+  RefinePass(ref_hp, target_hp, disparity, valid, valid, o.window, min_weight(o.window));
+  if (!smooth) return;
+  // One straight, mostly vertical edge dominating the small window (a hard shadow, a paint edge):
+  // the match rests on where each camera's pixel grid cut that edge, an error that varies slowly
+  // along it (±0.5 px in 40-row waves along a car's shadow on the simulator's obstacles preset)
+  // instead of averaging out over texture. Such pixels give no terms to the smooth window, and
+  // take its value: the texture around them.
+  if (edges) cv::bitwise_and(valid, ~edge, terms);
+  RefinePass(ref_hp, target_hp, &smoothed, valid, edges ? terms : valid, o.smooth_window, min_weight(o.smooth_window));
+  // Elsewhere the smooth window's value is taken where it agrees with the small window's within
+  // smooth_agree_px (no structure the small window resolves and the large one would blur, e.g. a
+  // pothole's wall), the value is at most smooth_max_px (the road and below it, not obstacles) and
+  // no edge dominates the small one.
+  const float agree = static_cast<float>(o.smooth_agree_px), max_value = static_cast<float>(o.smooth_max_px);
+  tbb::parallel_for(tbb::blocked_range<int>(0, valid.rows, 32), [&](const tbb::blocked_range<int>& r) {
+    for (int v = r.begin(); v < r.end(); ++v) {
+      const float *b = smoothed.ptr<float>(v), *s0 = sgm_in.ptr<float>(v);
+      const uint8_t* e = edges ? edge.ptr<uint8_t>(v) : nullptr;
+      const uint8_t* m = valid.ptr<uint8_t>(v);
+      float* d = disparity->ptr<float>(v);
+      for (int u = 0; u < valid.cols; ++u) {
+        if (!m[u] || !(d[u] <= max_value)) continue;
+        const bool take = e && e[u] ? b[u] != s0[u]  // refined by the smooth window (else the small window's value stays)
+                                    : std::abs(b[u] - d[u]) <= agree;
+        d[u] = take ? b[u] : d[u];
+      }
     }
   });
 }
@@ -528,6 +624,9 @@ DisparityResult ComputeDisparity(const cv::Mat& left, const cv::Mat& right, cons
   SgmOutput sgm;
   std::vector<double> kappa;
   cv::Mat ref_s, target_s;  // the images SGM compared (the sub-pixel refinement reads them)
+  // Largest SGM value that may take the smooth refinement window: 1 px above the road's residual
+  // (after the per-pixel warp the road is at delta, else within [delta, delta + span]).
+  double smooth_max_px = 0;
   if (gpt) {
     t0 = std::chrono::steady_clock::now();
     kappa = ComputeGptShift(res.road, W, H, P.gpt_delta_px);
@@ -539,6 +638,7 @@ DisparityResult ComputeDisparity(const cv::Mat& left, const cv::Mat& right, cons
     res.num_disparities = num_d;
     SgmParams sp = P.ToSgm(0, num_d);
     cv::Mat target = right;
+    smooth_max_px = P.gpt_delta_px + (P.gpt_subpixel_warp && P.gpt_pixel_warp ? 0.0 : span) + 1.0;
     if (P.gpt_subpixel_warp && P.gpt_pixel_warp) {
       target = WarpTargetPerPixel(right, res.road, P.gpt_delta_px);
     } else if (P.gpt_subpixel_warp) {
@@ -564,7 +664,12 @@ DisparityResult ComputeDisparity(const cv::Mat& left, const cv::Mat& right, cons
   res.timings.wta_ms = sgm.wta_ms;
 
   t0 = std::chrono::steady_clock::now();
-  RefineSubpixel(ref_s, target_s, &sgm.disparity, sgm.valid, P.refine_window);
+  SubpixelRefineOptions refine;
+  refine.window = P.refine_window;
+  refine.max_edge_coherence = P.refine_max_coherence;
+  if (gpt) refine.smooth_window = P.refine_smooth_window, refine.smooth_agree_px = P.refine_smooth_agree_px,
+           refine.smooth_max_px = smooth_max_px;
+  RefineSubpixel(ref_s, target_s, &sgm.disparity, sgm.valid, refine);
   FilterSpeckles(&sgm.disparity, &sgm.valid, P.speckle_window_size, P.speckle_max_diff_px);
   if (P.median) MedianValid3x3(&sgm.disparity, sgm.valid);
   FillSmallHoles(&sgm.disparity, &sgm.valid, P.fill_min_neighbours, P.speckle_max_diff_px);

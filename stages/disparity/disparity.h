@@ -48,6 +48,19 @@ struct DisparityParams {
   /// odd; 0 = off (SGM's cost-curve sub-pixel stays). Removes SGM's pixel locking: road EPE
   /// 0.128 -> 0.061 px on drone-low, the damage stage's road fit 6.4 -> 0.5 mm.
   int refine_window = 9;
+  /// GPT-SGM: a second refinement over this larger window (odd, <= 63; 0 = off), taken where it
+  /// agrees with refine_window's value within refine_smooth_agree_px and the surface is at most
+  /// 1 px above the road model: matching noise grows to ~0.04 px (median, after a 7x7 mean) where
+  /// the true disparity is half-way between integers (the views sample the texture at different
+  /// phases), which hid a 1.2 m x 28 mm pothole (0.5 px) at 4 m; the 21-px window halves it.
+  int refine_smooth_window = 21;
+  double refine_smooth_agree_px = 0.2;  ///< largest difference to refine_window's value where the smooth window is taken, px
+  /// With refine_smooth_window: pixels whose refine_window window is dominated by one straight,
+  /// mostly vertical edge (structure-tensor coherence above this; ~0.3 on texture) give no terms to
+  /// the smooth window and take its value: a hard shadow or paint edge is matched where each
+  /// camera's pixel grid cut it, an error that does not average out along the edge (±0.5 px waves
+  /// along a car's shadow on the obstacles preset). 1 = off.
+  double refine_max_coherence = 0.7;
 
   int gpt_num_disparities = 32;  ///< GPT-SGM residual search range, px (road residual + damage depth)
   double gpt_delta_px = 8;       ///< delta: residual disparity of the road's row minimum; damage down to -delta fits
@@ -116,6 +129,25 @@ DisparityResult ComputeDisparity(const cv::Mat& left_gray8, const cv::Mat& right
 /// 4 (grey levels/px)^2 (no texture: inside painted lines) or the result moves it by more than 1 px. `disparity`: CV_32F, match at column u - l in `target`
 /// (the images SGM compared); invalid pixels are left alone. window 0 = no-op.
 void RefineSubpixel(const cv::Mat& ref, const cv::Mat& target, cv::Mat* disparity, const cv::Mat& valid, int window);
+
+/// RefineSubpixel's options beyond the window.
+struct SubpixelRefineOptions {
+  int window = 9;  ///< the refinement window, odd; 0 = no-op
+  /// Larger window (odd; <= window = off): a second refinement from the input values (noise falls
+  /// with the window's area), taken where it agrees with the first within smooth_agree_px and the
+  /// first's value is at most smooth_max_px.
+  int smooth_window = 0;
+  double smooth_agree_px = 0.2;
+  double smooth_max_px = 1e30;
+  /// With smooth_window: pixels whose window is dominated by one straight, mostly vertical edge of
+  /// `ref` (structure-tensor coherence (l1 - l2) / (l1 + l2) above this, sum gx^2 >= 2 sum gy^2)
+  /// give no terms to the smooth window and take its value; >= 1 = off.
+  double max_edge_coherence = 1.0;
+};
+
+/// RefineSubpixel with the larger smooth window and the edge test.
+void RefineSubpixel(const cv::Mat& ref, const cv::Mat& target, cv::Mat* disparity, const cv::Mat& valid,
+                    const SubpixelRefineOptions& options);
 
 /// Drops 4-connected regions of valid pixels (neighbour steps <= max_diff_px) with fewer than
 /// max_size pixels; sets their disparity to 0 and validity to 0.

@@ -83,6 +83,20 @@ const OptionTable<DisparityParams>& ParamsTable() {
                "window of the intensity sub-pixel refinement after SGM (odd; 0 = off: SGM's cost-curve sub-pixel only)", "px")
           .Min(0)
           .Max(31)
+          .Add("refine_smooth_window", &DisparityParams::refine_smooth_window,
+               "GPT-SGM: larger refinement window taken on the road and below where it agrees with refine_window's "
+               "value (odd; 0 = off)", "px")
+          .Min(0)
+          .Max(63)
+          .Add("refine_smooth_agree_px", &DisparityParams::refine_smooth_agree_px,
+               "largest difference to refine_window's value where the smooth window's value is taken", "px")
+          .Min(0)
+          .Add("refine_max_coherence", &DisparityParams::refine_max_coherence,
+               "with refine_smooth_window: pixels whose refine_window window is dominated by one straight, mostly "
+               "vertical edge (structure-tensor coherence above this) take the smooth window's value computed without "
+               "them (1 = off)")
+          .Min(0)
+          .Max(1)
           .Add("gpt_num_disparities", &DisparityParams::gpt_num_disparities,
                "GPT-SGM residual search range (road residual + damage depth)", "px")
           .Min(1)

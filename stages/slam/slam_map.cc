@@ -74,6 +74,7 @@ void SlamMap::Replace(int from, int into) {
   b.found += a.found;
   a.observations.clear();
   a.bad = true;
+  a.replaced_by = into;
 }
 
 void SlamMap::UpdateCovisibility(int kf) {

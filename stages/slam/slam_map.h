@@ -39,6 +39,7 @@ struct MapPoint {
   double min_distance_m = 0, max_distance_m = 0;      ///< scale-invariance distance range
   int visible = 1, found = 1;          ///< times predicted in view / actually matched (culling ratio)
   bool bad = false;
+  int replaced_by = -1;                ///< the point it was merged into (SlamMap::Replace), -1 none
 };
 
 /// A keyframe.

@@ -44,6 +44,8 @@ void SlamOptions::Check() const {
   Require(loop_prior_radius_m > 0, "loop_prior_radius_m", loop_prior_radius_m, "loop_prior_radius_m > 0");
   Require(loop_prior_gate_m > 0, "loop_prior_gate_m", loop_prior_gate_m, "loop_prior_gate_m > 0");
   Require(global_ba_iterations >= 0, "global_ba_iterations", global_ba_iterations, "global_ba_iterations >= 0");
+  Require(global_ba_disparity_sigma_px >= 0, "global_ba_disparity_sigma_px", global_ba_disparity_sigma_px,
+          "global_ba_disparity_sigma_px >= 0");
 }
 
 }  // namespace rs

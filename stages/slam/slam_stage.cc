@@ -40,6 +40,9 @@ const OptionTable<SlamOptions>& SlamTable() {
                "px")
           .Min(-5)
           .Max(5)
+          .Add("disparity_self_calibration", &SlamOptions::disparity_self_calibration,
+               "at the end, add the disparity offset the keyframes' own motion implies (when known to 0.03 px) to "
+               "every stereo measurement before the global BA")
           .Add("match_max_hamming", &SlamOptions::match_max_hamming, "largest frame-to-map descriptor distance")
           .Min(0)
           .Max(256)
@@ -57,6 +60,8 @@ const OptionTable<SlamOptions>& SlamTable() {
           .Add("local_ba_keyframes", &SlamOptions::local_ba_keyframes, "keyframes in each local bundle adjustment")
           .Min(1)
           .Add("local_ba_iterations", &SlamOptions::local_ba_iterations, "solver iterations of each local BA").Min(1)
+          .Add("local_ba_fixed_size", &SlamOptions::local_ba_fixed_size,
+               "local BA by the fixed-size Schur Levenberg-Marquardt instead of Ceres (~5x less CPU; same minimum, other rounding)")
           .Add("local_map_keyframes", &SlamOptions::local_map_keyframes, "keyframes whose points form the local map")
           .Min(1)
           .Add("triangulation_neighbours", &SlamOptions::triangulation_neighbours,
@@ -78,6 +83,11 @@ const OptionTable<SlamOptions>& SlamTable() {
                "reject a loop whose relative translation disagrees with the priors by more", "m")
           .Min(0)
           .Add("global_ba_iterations", &SlamOptions::global_ba_iterations, "solver iterations of the global BA")
+          .Min(0)
+          .Add("global_ba_frames", &SlamOptions::global_ba_frames,
+               "the global BA also optimises every tracked frame with its map-point matches")
+          .Add("global_ba_disparity_sigma_px", &SlamOptions::global_ba_disparity_sigma_px,
+               "stereo disparity sigma in the global BA (0: the right image's u at the keypoint's sigma)", "px")
           .Min(0)
           .Add("ransac_seed", &SlamOptions::ransac_seed, "seed of every RANSAC (same input and seed, same result)")
           .Add("parallel", &SlamOptions::parallel,

@@ -9,8 +9,8 @@
 
 #include <fmt/format.h>
 
-#include "stages/slam/bundle_adjust.h"
 #include "stages/slam/disparity_calibration.h"
+#include "stages/slam/global_refinement.h"
 #include "stages/slam/loop_closing.h"
 #include "stages/slam/stereo_slam_internal.h"
 
@@ -35,9 +35,9 @@ std::string SlamStatistics::BriefReport() const {
 using stereo_slam_internal::Clock;
 using stereo_slam_internal::Seconds;
 
-// Diagnostic only (SlamStatistics): the disparity offset the keyframes' own motion implies
-// (disparity_calibration.h), over the tracked map before loop closing. Not applied: on KITTI it
-// matches the LiDAR check at the end of the clip but scatters beyond its error over shorter windows.
+// The disparity offset the keyframes' own motion implies (disparity_calibration.h), over the whole
+// tracked map before loop closing (shorter windows scatter beyond their error); SlamStatistics, and
+// applied by ApplyDisparitySelfCalibration when certain.
 void StereoSlam::Impl::EstimateDisparityOffsetOfMap() {
   std::vector<int> kfs;
   for (const Keyframe& kf : map.keyframes)
@@ -184,7 +184,15 @@ FrameResult StereoSlam::Impl::Track(int64_t t_ns, StereoFeatures features, const
   rec.status = status;
   rec.segment = segment;
   if (prior && prior->has_position) rec.p_prior = prior->T_world_cam.translation();
-  records.push_back(rec);
+  // A keyframe's matches are in the map already; a tracked frame's join the final global BA.
+  if (status != FrameStatus::kPriorOnly && !result.keyframe && opt.global_ba_frames) {
+    for (size_t i = 0; i < cur.f.size(); ++i) {
+      if (cur.mp[i] < 0) continue;
+      const cv::KeyPoint& kp = cur.f.keypoints[i];
+      rec.observations.push_back({kp.pt.x, kp.pt.y, cur.f.u_right[i], kp.octave, cur.mp[i]});
+    }
+  }
+  records.push_back(std::move(rec));
   ++stats.frames;
   if (status == FrameStatus::kTracked) ++stats.tracked;
   if (status == FrameStatus::kRelocalised) ++stats.relocalised;
@@ -205,15 +213,31 @@ SlamResult StereoSlam::Impl::Finish() {
   const auto t0 = Clock::now();
   SlamResult out;
   EstimateDisparityOffsetOfMap();
+  // The offset the map implies, applied to every stereo measurement before the global BA (stereo_slam_calibration.cc).
+  if (opt.disparity_self_calibration) ApplyDisparitySelfCalibration();
   if (map.keyframes.size() >= 2) {
     std::vector<LoopClosure> loops;
     if (opt.loop_closure) loops = DetectAndCloseLoops(&map, cam, pyr, opt, &stats);
     out.loops = loops;
     if (opt.global_ba_iterations > 0) {
-      std::vector<int> all;
-      for (const Keyframe& kf : map.keyframes)
-        if (kf.id > 0 && !kf.bad) all.push_back(kf.id);
-      BundleAdjust(&map, all, cam, pyr, opt.global_ba_iterations, true, {0});
+      // Keyframes (and with global_ba_frames every tracked frame, global_refinement.h); a refined
+      // frame's pose is kept relative to its reference keyframe, as the output below reads it.
+      std::vector<RefinedFrame> frames;
+      std::vector<size_t> record_of;
+      for (size_t i = 0; i < records.size(); ++i) {
+        FrameRecord& r = records[i];
+        if (r.observations.empty()) continue;
+        RefinedFrame f;
+        f.T_cam_world = r.T_cam_ref * map.keyframes[r.ref_kf].T_cam_world;
+        f.observations = std::move(r.observations);
+        frames.push_back(std::move(f));
+        record_of.push_back(i);
+      }
+      GlobalBundleAdjustWithFrames(&map, &frames, cam, pyr, opt.global_ba_iterations, {0}, opt.global_ba_disparity_sigma_px);
+      for (size_t j = 0; j < frames.size(); ++j) {
+        FrameRecord& r = records[record_of[j]];
+        if (frames[j].refined) r.T_cam_ref = frames[j].T_cam_world * map.keyframes[r.ref_kf].T_cam_world.inverse();
+      }
     }
   }
   out.frames.source = "StereoSlam";

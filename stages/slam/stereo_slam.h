@@ -62,10 +62,13 @@ struct SlamStatistics {
   int keyframes = 0, map_points = 0, segments = 1;
   int loop_candidates = 0, loops_rejected = 0, loops_closed = 0;
   int vocabulary_words = 0;
-  /// Diagnostic, not applied: disparity offset implied by the keyframes' own motion (disparity_calibration.h),
-  /// its standard error (px) and the samples used; estimated in Finish before loop closing
+  /// Disparity offset implied by the keyframes' own motion (disparity_calibration.h), its standard error (px)
+  /// and the samples used; estimated in Finish before loop closing, over the whole map
   double disparity_offset_px = 0, disparity_offset_sigma_px = 0;
   int disparity_offset_samples = 0;
+  /// What the self-calibration (options.disparity_self_calibration) added to every disparity before the
+  /// global BA (on top of options.disparity_offset_px), px; 0 when the estimate was not certain enough
+  double disparity_offset_applied_px = 0;
   double track_s = 0;          ///< wall time in Track (front end + tracking + local mapping)
   double local_mapping_s = 0;  ///< of which local mapping (culling, fusion, local BA)
   double finish_s = 0;         ///< wall time of Finish (loop closing + global BA)

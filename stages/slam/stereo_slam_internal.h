@@ -14,6 +14,7 @@
 #include <Eigen/Geometry>
 #include <opencv2/core/mat.hpp>
 
+#include "stages/slam/global_refinement.h"
 #include "stages/slam/pose_optimizer.h"
 #include "stages/slam/slam_map.h"
 #include "stages/slam/slam_options.h"
@@ -52,6 +53,7 @@ struct FrameRecord {
   FrameStatus status = FrameStatus::kTracked;
   int segment = 0;
   std::optional<Eigen::Vector3d> p_prior;  // the frame's GNSS position (prior world), if any
+  std::vector<FrameObservation> observations;  // a tracked non-key frame's map-point matches (final global BA)
 };
 
 }  // namespace stereo_slam_internal
@@ -105,6 +107,10 @@ struct StereoSlam::Impl {
   void CullRecentPoints(int kf);
   void FuseInto(int target, const std::vector<int>& pts);
   void LocalMapping(int kf);
+
+  // Disparity self-calibration (stereo_slam_calibration.cc).
+  void AddDisparityOffset(StereoFeatures* f, double offset_px) const;
+  void ApplyDisparitySelfCalibration();
 
   // Orchestration and Finish (stereo_slam.cc).
   void EstimateDisparityOffsetOfMap();
