@@ -56,28 +56,32 @@ class ReprojectionCost : public ceres::SizedCostFunction<3, 6, 3> {
   ReprojectionResidual r_;
 };
 
+}  // namespace
+
 Eigen::Matrix3d Skew(const Eigen::Vector3d& v) {
   Eigen::Matrix3d m;
   m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
   return m;
 }
 
-}  // namespace
+void AngleAxisWithLeftJacobian(const Eigen::Vector3d& w, Eigen::Matrix3d* R, Eigen::Matrix3d* Jl) {
+  const double theta2 = w.squaredNorm();
+  const Eigen::Matrix3d W = Skew(w);
+  if (theta2 > 1e-16) {
+    const double theta = std::sqrt(theta2);
+    *R = Eigen::AngleAxisd(theta, w / theta).toRotationMatrix();
+    *Jl = Eigen::Matrix3d::Identity() + (1 - std::cos(theta)) / theta2 * W + (theta - std::sin(theta)) / (theta2 * theta) * W * W;
+  } else {
+    *R = Eigen::Matrix3d::Identity() + W;
+    *Jl = Eigen::Matrix3d::Identity() + 0.5 * W;
+  }
+}
 
 void EvaluateReprojection(const ReprojectionResidual& r, const double* pose, const double* point, double* residual,
                           double* J_pose, double* J_point) {
   const Eigen::Map<const Eigen::Vector3d> w(pose), t(pose + 3), x(point);
-  const double theta2 = w.squaredNorm();
-  const Eigen::Matrix3d W = Skew(w);
   Eigen::Matrix3d R, Jl;  // rotation and its left Jacobian: d(R(w) x)/dw = -[R x]_x Jl(w)
-  if (theta2 > 1e-16) {
-    const double theta = std::sqrt(theta2);
-    R = Eigen::AngleAxisd(theta, w / theta).toRotationMatrix();
-    Jl = Eigen::Matrix3d::Identity() + (1 - std::cos(theta)) / theta2 * W + (theta - std::sin(theta)) / (theta2 * theta) * W * W;
-  } else {  // first order, as ceres::AngleAxisRotatePoint near zero
-    R = Eigen::Matrix3d::Identity() + W;
-    Jl = Eigen::Matrix3d::Identity() + 0.5 * W;
-  }
+  AngleAxisWithLeftJacobian(w, &R, &Jl);
   const Eigen::Vector3d Rx = R * x, pc = Rx + t;
   const double iz = 1.0 / pc.z(), s = r.sqrt_info;
   const bool stereo = r.u_right >= 0;

@@ -22,6 +22,13 @@ struct ReprojectionResidual {
   bool operator()(const T* pose, const T* point, T* residual) const;
 };
 
+/// [v]_x, the cross-product matrix: Skew(v) x = v × x.
+Eigen::Matrix3d Skew(const Eigen::Vector3d& v);
+
+/// R(w) of an angle-axis vector and its left Jacobian Jl(w) (d(R(w) x)/dw = -[R x]_x Jl(w)); first
+/// order near w = 0, as ceres::AngleAxisRotatePoint. Shared by the analytic reprojection Jacobians.
+void AngleAxisWithLeftJacobian(const Eigen::Vector3d& w, Eigen::Matrix3d* R, Eigen::Matrix3d* Jl);
+
 /// ReprojectionResidual's residual with analytic Jacobians (row-major 3x6 w.r.t. the pose, 3x3 w.r.t.
 /// the point; either may be null): the local and global BA use it, ~3x cheaper than autodiff;
 /// bundle_adjust_test checks it against the autodiff Jacobians.

@@ -31,12 +31,6 @@ Eigen::Isometry3d PoseFromParams(const std::array<double, 6>& p) {
   return T.inverse();
 }
 
-Eigen::Matrix3d Skew(const Eigen::Vector3d& v) {
-  Eigen::Matrix3d m;
-  m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
-  return m;
-}
-
 class Reprojection : public ceres::SizedCostFunction<3, 6, 3> {
  public:
   Reprojection(const ReprojectionResidual& r, double disparity_sigma_px) : r_(r), sigma_d_(disparity_sigma_px) {}
@@ -69,17 +63,8 @@ struct Obs {
 void EvaluateCentreReprojection(const ReprojectionResidual& r, double disparity_sigma_px, const double* pose,
                                 const double* point, double* residual, double* J_pose, double* J_point) {
   const Eigen::Map<const Eigen::Vector3d> w(pose), c(pose + 3), x(point);
-  const double theta2 = w.squaredNorm();
-  const Eigen::Matrix3d W = Skew(-w);
   Eigen::Matrix3d Rt, Jl;  // R(w)^T = R(-w) and the left Jacobian of R at -w
-  if (theta2 > 1e-16) {
-    const double theta = std::sqrt(theta2);
-    Rt = Eigen::AngleAxisd(theta, -w / theta).toRotationMatrix();
-    Jl = Eigen::Matrix3d::Identity() + (1 - std::cos(theta)) / theta2 * W + (theta - std::sin(theta)) / (theta2 * theta) * W * W;
-  } else {
-    Rt = Eigen::Matrix3d::Identity() + W;
-    Jl = Eigen::Matrix3d::Identity() + 0.5 * W;
-  }
+  AngleAxisWithLeftJacobian(-w, &Rt, &Jl);
   const Eigen::Vector3d pc = Rt * (x - c);
   const double iz = 1.0 / pc.z(), s = r.sqrt_info;
   const bool stereo = r.u_right >= 0, uvd = stereo && disparity_sigma_px > 0;

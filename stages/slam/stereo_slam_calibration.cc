@@ -40,18 +40,22 @@ double ForwardShare(const SlamMap& map) {
   std::nth_element(share.begin(), share.begin() + share.size() / 2, share.end());
   return share[share.size() / 2];
 }
+
+// A stereo match whose shifted right position u_right leaves a disparity of 0.05 px or less, or
+// falls off the image, is dropped (as MatchStereo drops it).
+bool KeepsStereo(double u, double u_right) { return u - u_right > 0.05 && u_right >= 0; }
 }  // namespace
 
 void StereoSlam::Impl::AddDisparityOffset(StereoFeatures* f, double offset_px) const {
   for (size_t i = 0; i < f->size(); ++i) {
     if (f->u_right[i] < 0) continue;
     const double ur = f->u_right[i] - offset_px, d = f->keypoints[i].pt.x - ur;
-    if (d <= 0.05 || ur < 0) {  // as MatchStereo drops it
-      f->u_right[i] = -1.f;
-      f->depth_m[i] = -1.f;
-    } else {
+    if (KeepsStereo(f->keypoints[i].pt.x, ur)) {
       f->u_right[i] = static_cast<float>(ur);
       f->depth_m[i] = static_cast<float>(cam.bf() / d);
+    } else {
+      f->u_right[i] = -1.f;
+      f->depth_m[i] = -1.f;
     }
   }
 }
@@ -67,7 +71,7 @@ void StereoSlam::Impl::ApplyDisparitySelfCalibration() {
     for (FrameObservation& ob : r.observations) {
       if (ob.u_right < 0) continue;
       const double ur = ob.u_right - o;
-      ob.u_right = ob.u - ur > 0.05 && ur >= 0 ? static_cast<float>(ur) : -1.f;
+      ob.u_right = KeepsStereo(ob.u, ur) ? static_cast<float>(ur) : -1.f;
     }
   stats.disparity_offset_applied_px = o;
 }
