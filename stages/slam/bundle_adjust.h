@@ -1,7 +1,7 @@
 #pragma once
-// Ceres bundle adjustment of the SLAM map (local window or everything) and SE(3) pose-graph
-// optimisation for loop closing. Poses are parametrised as (angle-axis, translation) of
-// T_cam_world; residuals are whitened by the pyramid-level sigma.
+// Ceres bundle adjustment of a local window of the SLAM map and SE(3) pose-graph optimisation for
+// loop closing (the global BA after loop closing is global_refinement.h). Poses are parametrised
+// as (angle-axis, translation) of T_cam_world; residuals are whitened by the pyramid-level sigma.
 
 #include <vector>
 
