@@ -26,14 +26,17 @@ struct CrackDetection {
 /// Width along the skeleton = 2·(distance to the crack edge) − 1 px; length = 8-connected
 /// skeleton path length (diagonal steps √2). Confidence = mean black-hat contrast above the
 /// median / (2·k·σ), clamped to [0, 1].
-/// `response` (optional): CrackResponse(image, options), computed beforehand (DetectDamage runs it
-/// alongside the road fit); empty = computed here.
+/// The response level is local (options.level_cell_px): median + k·σ per cell of the searched
+/// road, interpolated. `response` (optional): CrackResponse(image, options, pixel_size_m),
+/// computed beforehand (DetectDamage runs it alongside the segmentation); empty = computed here.
 CrackDetection DetectCracks(const cv::Mat& image, const cv::Mat& road_mask, const cv::Mat& exclude,
                             const cv::Mat& pixel_size_m, const CrackOptions& options,
                             const cv::Mat& response = cv::Mat());
 
-/// The multi-scale black-hat response (CV_8U) of `image` (8-bit grey or BGR) that DetectCracks
-/// thresholds: it depends on the image alone.
-cv::Mat CrackResponse(const cv::Mat& image, const CrackOptions& options);
+/// The black-hat response (CV_8U) of `image` (8-bit grey or BGR) that DetectCracks thresholds.
+/// With `pixel_size_m` (CV_32F, metres per pixel on the road, NaN off-road) and
+/// options.element_width_m > 0: one element per image row spanning element_width_m of road
+/// (rows without road: 0); else the pixel scales min_scale_px..max_scale_px (step 4).
+cv::Mat CrackResponse(const cv::Mat& image, const CrackOptions& options, const cv::Mat& pixel_size_m = cv::Mat());
 
 }  // namespace rs

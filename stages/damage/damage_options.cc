@@ -110,7 +110,10 @@ void CrackOptions::Check() const {
   Require(min_scale_px >= 3 && min_scale_px % 2 == 1, "min_scale_px", min_scale_px, ">=", "3 and odd", 3);
   Require(max_scale_px >= min_scale_px && max_scale_px % 2 == 1, "max_scale_px", max_scale_px, ">=",
           "min_scale_px (odd)", min_scale_px);
+  Require(element_width_m >= 0, "element_width_m", element_width_m, ">=", "0", 0);
   Require(k_sigma > 0, "k_sigma", k_sigma, ">", "0", 0);
+  Require(level_cell_px == 0 || level_cell_px >= 16, "level_cell_px", level_cell_px, ">=", "16 (or 0)", 16);
+  Require(line_length_px == 0 || line_length_px >= 5, "line_length_px", line_length_px, ">=", "5 (or 0)", 5);
   Require(min_length_m > 0, "min_length_m", min_length_m, ">", "0", 0);
   Require(min_elongation >= 1, "min_elongation", min_elongation, ">=", "1", 1);
   Require(max_width_m > 0, "max_width_m", max_width_m, ">", "0", 0);
@@ -123,7 +126,14 @@ const OptionTable<CrackOptions>& CrackOptions::Table() {
       .Add("enabled", &O::enabled, "look for cracks")
       .Add("min_scale_px", &O::min_scale_px, "smallest black-hat element (odd)", "px").Min(3)
       .Add("max_scale_px", &O::max_scale_px, "largest black-hat element (odd)", "px").Min(3)
+      .Add("element_width_m", &O::element_width_m,
+           "calibrated: black-hat element width on the road, per image row within the pixel scales (0 = pixel scales)", "m")
+      .Min(0)
       .Add("k_sigma", &O::k_sigma, "black-hat threshold in robust σ").Above(0)
+      .Add("level_cell_px", &O::level_cell_px, "cell of the local black-hat level (0 = one per frame)", "px").Min(0)
+      .Add("line_length_px", &O::line_length_px,
+           "oriented line support length: response averaged along lines must stand out (0 = pixel response alone)", "px")
+      .Min(0)
       .Add("min_length_m", &O::min_length_m, "shortest crack", "m").Above(0)
       .Add("min_elongation", &O::min_elongation, "length / width below this is not a crack").Min(1)
       .Add("max_width_m", &O::max_width_m, "wider dark regions are not cracks", "m").Above(0)
@@ -145,6 +155,8 @@ void MeasureOptions::Check() const {
   Require(spike_quantile < 1, "spike_quantile", spike_quantile, "<", "1", 1);
   Require(depth_percentile > 0.5 && depth_percentile <= 1, "depth_percentile", depth_percentile, "in", "(0.5, 1]",
           0);
+  Require(floor_clearance_px >= 0, "floor_clearance_px", floor_clearance_px, ">=", "0", 0);
+  Require(hidden_wall_slope > 0, "hidden_wall_slope", hidden_wall_slope, ">", "0", 0);
 }
 
 const OptionTable<MeasureOptions>& MeasureOptions::Table() {
@@ -165,13 +177,22 @@ const OptionTable<MeasureOptions>& MeasureOptions::Table() {
       .Add("pothole_min_noise_sigma", &O::pothole_min_noise_sigma,
            "depressions shallower than this many sigma of the local relief noise are 'other' (0 = off)")
       .Min(0)
+      .Add("pothole_noise_two_sided", &O::pothole_noise_two_sided,
+           "that noise capped at twice its spread below the road level (a kerb's rise is not matching noise)")
       .Add("pothole_min_spike_ratio", &O::pothole_min_spike_ratio,
            "depressions shallower than this multiple of the road's local upward error reach are 'other' "
            "(needs pothole_min_noise_sigma > 0; 0 = off)")
       .Min(0)
       .Add("spike_quantile", &O::spike_quantile, "quantile of a noise cell's upward deviations taken as its error reach")
       .Above(0.5).Below(1)
-      .Add("depth_percentile", &O::depth_percentile, "percentile of depth reported as max depth").Above(0.5).Max(1);
+      .Add("depth_percentile", &O::depth_percentile, "percentile of depth reported as max depth").Above(0.5).Max(1)
+      .Add("floor_clearance_px", &O::floor_clearance_px,
+           "the floor counts as seen when its deepest seen part stands this many image rows (Z/f each) above the "
+           "near rim's shadow line", "px")
+      .Min(0)
+      .Add("hidden_wall_slope", &O::hidden_wall_slope,
+           "hidden floor: walls in the near rim's shadow assumed no steeper on average (bounds the hidden depth)")
+      .Above(0);
   return table;
 }
 

@@ -82,7 +82,19 @@ struct CrackOptions {
   bool enabled = true;                ///< look for cracks at all
   int min_scale_px = 5;               ///< smallest black-hat structuring element, px (odd)
   int max_scale_px = 15;              ///< largest black-hat structuring element, px (odd)
+  /// With pixel sizes on the road (calibrated): the black-hat element spans this much road
+  /// (rounded to an odd pixel count per image row, clamped to [min_scale_px, max_scale_px]):
+  /// dark lines narrower respond fully. A fixed pixel scale spans 4× more road near an oblique
+  /// camera than far from it and there matched the gaps between coarse aggregate; 0 = pixel scales.
+  double element_width_m = 0.03;
   double k_sigma = 5.0;               ///< response threshold: median + k·σ(MAD) of the black-hat response
+  /// Cell of the local response level (median, MAD per cell, interpolated): texture resolved
+  /// near the camera responds more than the blurred far road; 0 = one level per frame, px.
+  int level_cell_px = 64;
+  /// Oriented line support: pixels count as crack where the mean response along a line of this
+  /// length (8 directions, best minus their mean) stands k_sigma above its local level, and the
+  /// pixel's own response 1 σ above its level; 0 = the pixel response alone at k_sigma, px.
+  int line_length_px = 21;
   double min_length_m = 0.15;         ///< shorter thin components are texture, not cracks, m
   double min_elongation = 6.0;        ///< skeleton length / mean width below this is a blob, not a crack
   double max_width_m = 0.05;          ///< wider dark regions are not cracks, m
@@ -110,6 +122,9 @@ struct MeasureOptions {
   /// segment.noise_cell_px > 0): a depression no deeper than the ripples around it is not
   /// confirmed as a pothole. 0 = off.
   double pothole_min_noise_sigma = 8.0;
+  /// That noise capped at twice the spread below the road level (TwoSidedReliefNoise): matching
+  /// noise errs both ways, a kerb's or verge's rise the road model does not follow only up.
+  bool pothole_noise_two_sided = true;
   /// Max depth must also reach this multiple of how far the road's upward errors reach around it
   /// (LocalReliefSpikes: the spike_quantile of the upward deviations per noise cell): SGM's wrong
   /// winners fake depressions as deep as they fake bumps, real damage only goes down. 0 = off.
@@ -118,6 +133,13 @@ struct MeasureOptions {
   /// the ~500 samples of a 96 px cell: about its largest).
   double spike_quantile = 0.999;
   double depth_percentile = 0.99;       ///< max depth = this percentile of per-pixel depth (rejects single-pixel spikes)
+  /// Line of sight over the near rim (floor_visibility.h): the floor counts as seen when the
+  /// deepest seen surface stands this many image rows of clearance (Z/f each) above the rim's
+  /// shadow line; else it may be hidden and the depth is a lower bound.
+  double floor_clearance_px = 8.0;
+  /// Hidden floor: walls in the rim's shadow assumed no steeper on average (depth per metre)
+  /// than this; bounds the hidden depth (vertical walls would leave it unbounded).
+  double hidden_wall_slope = 1.0;
   void Check() const;
   static const OptionTable<MeasureOptions>& Table();
 };

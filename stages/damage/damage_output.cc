@@ -49,8 +49,9 @@ cv::Mat RenderOverlay(const cv::Mat& left, const cv::Mat& labels, const std::vec
     std::string text = fmt::format("{} {}", d.id, DamageTypeName(d.type));
     if (d.type == DamageType::kCrack && std::isfinite(d.mean_width_m))
       text += fmt::format(" w{:.0f}mm {}", d.mean_width_m * 1000, SeverityLevelName(d.fhwa.level));
-    else if (std::isfinite(d.max_depth_m))
-      text += fmt::format(" {:.0f}mm {}", d.max_depth_m * 1000, SeverityLevelName(d.astm.level));
+    else if (std::isfinite(d.max_depth_m))  // ">=": the near rim may hide deeper floor (a lower bound)
+      text += fmt::format(" {}{:.0f}mm {}", d.floor_visible ? "" : ">=", d.max_depth_m * 1000,
+                          SeverityLevelName(d.astm.level));
     if (d.outline_px.empty()) continue;
     const cv::Rect box = cv::boundingRect(d.outline_px);
     const cv::Point at(box.x, std::max(20, box.y - 8));
@@ -81,6 +82,11 @@ nlohmann::json DetectionsToJson(const std::vector<DamageInstance>& instances) {
                     {"range_m", Num(d.range_m)},
                     {"sigma_depth_m", Num(d.sigma_depth_m)},
                     {"confidence", Num(d.confidence)},
+                    {"floor_visible", d.floor_visible},
+                    {"grazing_angle_deg", Num(d.grazing_angle_deg)},
+                    {"hidden_length_m", Num(d.hidden_length_m)},
+                    {"max_depth_bound_m", Num(d.max_depth_bound_m)},
+                    {"volume_upper_m3", Num(d.volume_upper_m3)},
                     {"astm_d6433", Grade(d.astm)},
                     {"fhwa_ltpp", Grade(d.fhwa)},
                     {"intervention", d.intervention},

@@ -2,11 +2,13 @@
 
 #include "stages/damage/cracks.h"
 #include "stages/damage/damage_output.h"
+#include "stages/damage/floor_visibility.h"
 #include "stages/damage/image_edges.h"
 #include "stages/damage/measure.h"
 #include "stages/damage/relief_noise.h"
 #include "stages/damage/relief_smooth.h"
 #include "stages/damage/severity.h"
+#include "stages/damage/two_sided_noise.h"
 
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -91,11 +93,10 @@ FrameDamage DetectDamage(const cv::Mat& input_disparity_px, const cv::Mat& left_
   // cancelled and waited for before they go.
   const bool want_edges = o.segment.noise_cell_px > 0 && !left_image.empty() && o.segment.edge_min_gradient > 0;
   const bool want_cracks = o.crack.enabled && !left_image.empty();
-  cv::Mat edges, crack_response;
+  cv::Mat edges, crack_response, pixel_size;
   tbb::task_group image_work;
   image_work.run([&] {
     if (want_edges) edges = StrongEdgeMask(left_image, o.segment.edge_min_gradient, o.segment.edge_margin_px);
-    if (want_cracks) crack_response = CrackResponse(left_image, o.crack);
   });
   cv::Mat disparity_px;  // a new image: the caller's disparity is not changed
   f.analysed_range_m = AnalysedRangeM(g, o, NearestDepthM(input_disparity_px, g));
@@ -117,6 +118,9 @@ FrameDamage DetectDamage(const cv::Mat& input_disparity_px, const cv::Mat& left_
   ReliefImage relief{f.relief.transformed_disparity_px, f.relief.valid_mask & (f.relief.obstacle_mask == 0),
                      RoadRowElongation(disparity_px.rows, g, f.surface.normal)};
   const cv::Mat area = PixelAreaOnRoad(f.relief, g, f.surface);
+  cv::sqrt(area, pixel_size);  // metres per pixel on the road (NaN off-road)
+  // The crack response needs the pixel sizes (element sized on the road): alongside the segmentation.
+  if (want_cracks) image_work.run([&] { crack_response = CrackResponse(left_image, o.crack, pixel_size); });
   const ReliefScale scale = EstimateReliefScale(relief);
   // Seeds must be significant against the noise where they lie (LocalReliefNoise, never below
   // the frame's σ). Pixels next to strong image steps (paint edges) form their own noise class,
@@ -130,6 +134,11 @@ FrameDamage DetectDamage(const cv::Mat& input_disparity_px, const cv::Mat& left_
     // obstacle, the model bent beside it), not matching noise; at paint edges they are the noise.
     noise = LocalReliefNoise(relief.value, reliable, scale.road_level, o.segment.noise_cell_px, scale.sigma, 40.0);
     road_noise = noise;  // shared until the edge class changes `noise`
+    // The pothole rule's noise: beside a kerb the road rises where the model does not follow,
+    // which is not matching noise (TwoSidedReliefNoise). The seeds keep the one-sided noise.
+    if (o.measure.pothole_min_noise_sigma > 0 && o.measure.pothole_noise_two_sided)
+      road_noise = TwoSidedReliefNoise(noise, relief.value, reliable, scale.road_level, o.segment.noise_cell_px,
+                                       scale.sigma, 40.0);
     if (!edges.empty() && cv::countNonZero(edges) > 0) {
       const cv::Mat edge_noise =
           LocalReliefNoise(relief.value, relief.valid & edges, scale.road_level, o.segment.noise_cell_px, scale.sigma);
@@ -145,6 +154,11 @@ FrameDamage DetectDamage(const cv::Mat& input_disparity_px, const cv::Mat& left_
   }
   const DepressionSegmentation seg = SegmentDepressions(relief, o.segment, area, scale, noise);
   f.labels = seg.labels;
+  // Obstacle pixels were measured above the road: never damage. The segmentation sees them only
+  // as pixels without relief, like stereo dropouts, and absorbs such patches into a depression
+  // they border: a parked car beside a false depression became a 15 m² "pothole" (obstacles
+  // preset, truth disparity).
+  f.labels.setTo(0, f.relief.obstacle_mask);
   f.threshold_sigma = seg.threshold_sigma;
   if (o.road.local_cell_px > 0 && seg.count > 0) {
     // The local road correction, recomputed without the found depressions (grown by half a
@@ -174,12 +188,13 @@ FrameDamage DetectDamage(const cv::Mat& input_disparity_px, const cv::Mat& left_
     measure_noise = cv::max(road_noise, spikes * (o.measure.pothole_min_spike_ratio / o.measure.pothole_min_noise_sigma));
   }
   f.instances = MeasureDepressions(f.labels, f.relief, g, f.surface, o.measure, measure_noise);
+  // Oblique views: may the near rim hide the floor (depth and volume then lower bounds)?
+  AnalyseFloorVisibility(f.instances, f.labels, f.relief, g, f.surface, o.measure);
   f.ms_measure = MsSince(t0);
 
   if (o.crack.enabled && !left_image.empty()) {
     t0 = std::chrono::steady_clock::now();
-    cv::Mat pixel_size;
-    cv::sqrt(area, pixel_size);  // metres per pixel on the road (NaN off-road)
+    image_work.wait();
     // relief.valid: the road mask (valid, not obstacle); RefineRoadRelief changes neither mask.
     const CrackDetection cracks = DetectCracks(left_image, relief.valid, f.labels != 0, pixel_size, o.crack, crack_response);
     AddCracks(cracks, f.labels, f.instances);

@@ -110,6 +110,25 @@ TEST(DetectDamage, AnalysedRangeCoversTheNearRoad) {
   EXPECT_EQ(NearestDepthM(cv::Mat::zeros(8, 8, CV_32F), scene.geometry), 0.0);
 }
 
+// A slab (obstacle, 0.3 m high) standing in a wide pothole: the segmentation sees its pixels as
+// relief-less, like stereo dropouts, and would absorb them into the depression they border; an
+// obstacle measured above the road is never damage. The pothole is still found, its depth kept.
+TEST(DetectDamage, ObstacleIsNeverDamage) {
+  SyntheticRoadScene scene;
+  scene.pothole_radius_m = 0.7;  // reaches under the slab (0.45-1.05 m to its right)
+  scene.box_height_m = 0.3;
+  const FrameDamage f = DetectDamage(scene.Render(), cv::Mat(), scene.geometry, DamageOptions());
+  ASSERT_GT(cv::countNonZero(f.relief.obstacle_mask), 10000);
+  // The slab borders the depression (else the test would not exercise the absorption).
+  cv::Mat grown;
+  cv::dilate(f.labels != 0, grown, cv::Mat::ones(3, 3, CV_8U));
+  EXPECT_GT(cv::countNonZero(grown & f.relief.obstacle_mask), 100);
+  EXPECT_EQ(cv::countNonZero((f.labels != 0) & f.relief.obstacle_mask), 0);
+  ASSERT_GE(f.instances.size(), 1u);
+  EXPECT_EQ(f.instances[0].type, DamageType::kPothole);
+  EXPECT_NEAR(f.instances[0].max_depth_m, 0.06, 0.01);
+}
+
 TEST(SegmentTransformedDisparity, Nominal) {
   SyntheticRoadScene scene;
   const FrameDamage f = DetectDamage(scene.Render(), cv::Mat(), scene.geometry, DamageOptions());

@@ -61,6 +61,17 @@ struct DamageInstance {
   double range_m = kUnknown;                ///< mean camera distance Z of the road under the instance
   double sigma_depth_m = kUnknown;          ///< stereo depth uncertainty σ_Z = Z²·σ_d/(f·B) at range_m
   double confidence = 0;             ///< 0..1, see docs/stages/damage.md
+  /// Line of sight over the near rim (floor_visibility.h; depressions only). false: the rim
+  /// may hide part of the floor from this viewpoint, so max_depth_m is a lower bound (what the
+  /// frame sees) and max_depth_bound_m holds the rest.
+  bool floor_visible = true;
+  double grazing_angle_deg = kUnknown;  ///< elevation of the rays over the near rim above the road
+  double hidden_length_m = kUnknown;    ///< longest stretch behind the near rim no ray reaches (along the view)
+  double max_depth_bound_m = kUnknown;  ///< floor hidden: largest depth the geometry allows (incl. 2 σ); NaN when seen
+  /// Where the rim's shadow may hide volume (> 5 % of volume_m3, or the floor hidden): the
+  /// volume with that shadow filled to the bound (+2 σ); volume_m3 is then a lower bound. NaN
+  /// when the volume is seen.
+  double volume_upper_m3 = kUnknown;
   SeverityGrade astm;                ///< ASTM D6433 pothole grade (potholes only)
   SeverityGrade fhwa;                ///< FHWA LTPP grade (potholes and cracks)
   bool intervention = false;         ///< exceeds the configured intervention thresholds

@@ -195,7 +195,7 @@ SimDamageEvaluation EvaluateSimulatedDamage(const fs::path& dir, const SimDamage
   SimDamageEvaluation r;
   std::vector<double> steps[4];
   std::vector<double> ms_damage, cpu_damage, ms_disp, road_abs_mm, depth_mm, visible_depth_mm, area_pct, volume_pct,
-      visible_volume_pct;
+      visible_volume_pct, seen_depth_mm, seen_volume_pct, bound_ratio, volume_ratio;
   int within = 0, severity_ok = 0;
   double sigma_sum = 0, valid_sum = 0;
   std::set<int> unique;
@@ -336,6 +336,7 @@ SimDamageEvaluation EvaluateSimulatedDamage(const fs::path& dir, const SimDamage
     for (const auto& [p, d] : pothole_det) {
       if (border_p.count(p) && !matched_p.count(p)) continue;  // cut by the frame: not scored
       ++r.detections;
+      r.hidden_flag_detections += !d->floor_visible;
       if (matched_p.count(p)) continue;
       if (on_damage_p[p] * 2 >= area_p[p]) {
         // Mostly on truth damage: either unscored damage (ignored) or a poor segmentation of a
@@ -377,7 +378,32 @@ SimDamageEvaluation EvaluateSimulatedDamage(const fs::path& dir, const SimDamage
         const double de = d.max_depth_m - td.max_depth_m;
         depth_mm.push_back(1000.0 * de);
         visible_depth_mm.push_back(1000.0 * (d.max_depth_m - ob.truth_visible_depth_m));
-        r.occluded += td.max_depth_m - ob.truth_visible_depth_m > 0.010;
+        ob.truth_floor_hidden = td.max_depth_m - ob.truth_visible_depth_m > 0.010;
+        r.occluded += ob.truth_floor_hidden;
+        // The stage's line-of-sight verdict: where it says seen, the Done-when errors apply;
+        // where it says hidden, the truth must lie within the interval it states.
+        ob.floor_visible = d.floor_visible;
+        ob.max_depth_bound_m = d.max_depth_bound_m, ob.volume_upper_m3 = d.volume_upper_m3;
+        r.flag_agreements += d.floor_visible != ob.truth_floor_hidden;
+        r.flagged_hidden_truth_seen += !d.floor_visible && !ob.truth_floor_hidden;
+        r.flagged_seen_truth_hidden += d.floor_visible && ob.truth_floor_hidden;
+        if (d.floor_visible) {
+          seen_depth_mm.push_back(1000.0 * de);
+        } else {
+          ++r.hidden_matches;
+          r.hidden_depth_contained +=
+              td.max_depth_m >= d.max_depth_m - 2 * d.sigma_depth_m && td.max_depth_m <= d.max_depth_bound_m;
+          bound_ratio.push_back(d.max_depth_bound_m / td.max_depth_m);
+        }
+        // The volume likewise: an upper bound is stated wherever the rim's shadow may hide some.
+        if (!std::isfinite(d.volume_upper_m3)) {
+          seen_volume_pct.push_back(100.0 * (d.volume_m3 - td.volume_m3) / td.volume_m3);
+        } else {
+          ++r.volume_bounded_matches;
+          r.hidden_volume_contained += td.volume_m3 >= d.volume_m3 - 2 * d.sigma_depth_m * d.area_m2 &&
+                                       td.volume_m3 <= d.volume_upper_m3;
+          volume_ratio.push_back(d.volume_upper_m3 / td.volume_m3);
+        }
         if (ob.truth_visible_volume_m3 > 0)
           visible_volume_pct.push_back(100.0 * (d.volume_m3 - ob.truth_visible_volume_m3) / ob.truth_visible_volume_m3);
         area_pct.push_back(100.0 * (d.area_m2 - td.area_m2) / td.area_m2);
@@ -422,6 +448,10 @@ SimDamageEvaluation EvaluateSimulatedDamage(const fs::path& dir, const SimDamage
   r.visible_depth_error_mm = ComputeDamageErrorStats(visible_depth_mm);
   r.visible_volume_error_pct = ComputeDamageErrorStats(visible_volume_pct);
   r.area_error_pct = ComputeDamageErrorStats(area_pct);
+  r.seen_depth_error_mm = ComputeDamageErrorStats(seen_depth_mm);
+  r.seen_volume_error_pct = ComputeDamageErrorStats(seen_volume_pct);
+  r.hidden_bound_ratio = ComputeDamageErrorStats(bound_ratio);
+  r.volume_upper_ratio = ComputeDamageErrorStats(volume_ratio);
   r.volume_error_pct = ComputeDamageErrorStats(volume_pct);
   if (r.detected > 0) {
     r.depth_within_2sigma = double(within) / r.detected;
@@ -452,6 +482,12 @@ std::string SimDamageEvaluation::Report() const {
       "max depth error: {}; within 2 sigma_Z {:.1f} % (mean sigma_Z {:.1f} mm)\n"
       "max depth error against the depth visible in the frame: {}; floor hidden (> 10 mm) in {} matches\n"
       "area error: {}\nvolume error: {}\nvolume error against the volume visible in the frame: {}\n"
+      "floor seen (stage) in {} matches: max depth error {}\n"
+      "floor hidden (stage) in {} matches: true depth in [measured - 2 sigma_Z, bound] {}/{}; bound / true depth {}\n"
+      "volume seen (stage: no upper bound) in {} matches: volume error {}\n"
+      "volume bounded (stage) in {} matches: true volume in [measured - 2 sigma_Z area, upper] {}/{}; upper / true {}\n"
+      "hidden flag vs truth (floor hidden > 10 mm): agrees in {}/{} matches, flagged hidden but seen {}, flagged "
+      "seen but hidden {}; pothole detections flagged hidden {}/{}\n"
       "severity (ASTM vs truth) agreement {:.1f} %\n"
       "road model: median |true road - fitted| {:.2f} mm\n"
       "time per frame: DetectDamage median {:.1f} ms wall (max {:.1f}), {:.1f} ms CPU (road {:.1f}, segment {:.1f}, measure {:.1f}, cracks {:.1f}); "
@@ -460,7 +496,12 @@ std::string SimDamageEvaluation::Report() const {
       observations.size(), unconfirmable, detections, false_positives, ignored_detections, precision, obstacle_detections,
       stats(depth_error_mm, " mm"), 100 * depth_within_2sigma, mean_sigma_depth_mm, stats(visible_depth_error_mm, " mm"),
       occluded, stats(area_error_pct, " %"),
-      stats(volume_error_pct, " %"), stats(visible_volume_error_pct, " %"), 100 * severity_agreement, road_median_abs_mm, ms_damage_median, ms_damage_max,
+      stats(volume_error_pct, " %"), stats(visible_volume_error_pct, " %"), seen_depth_error_mm.n,
+      stats(seen_depth_error_mm, " mm"), hidden_matches, hidden_depth_contained, hidden_matches,
+      fmt::format("median {:.2f}, max {:.2f}", hidden_bound_ratio.median_abs, hidden_bound_ratio.max_abs),
+      seen_volume_error_pct.n, stats(seen_volume_error_pct, " %"), volume_bounded_matches, hidden_volume_contained,
+      volume_bounded_matches, fmt::format("median {:.2f}, max {:.2f}", volume_upper_ratio.median_abs, volume_upper_ratio.max_abs), flag_agreements, detected,
+      flagged_hidden_truth_seen, flagged_seen_truth_hidden, hidden_flag_detections, detections, 100 * severity_agreement, road_median_abs_mm, ms_damage_median, ms_damage_max,
       cpu_ms_damage_median, ms_road_median, ms_segment_median, ms_measure_median, ms_cracks_median,
       ms_disparity_median);
   return s;

@@ -56,6 +56,12 @@ struct PotholeObservation {
   double truth_visible_volume_m3 = 0;
   double max_depth_m = kUnknown, area_m2 = kUnknown, volume_m3 = kUnknown, sigma_depth_m = kUnknown;
   SeverityLevel astm = SeverityLevel::kNone;
+  /// The stage's line-of-sight verdict on the match (DamageInstance::floor_visible) and its
+  /// bounds where it says hidden.
+  bool floor_visible = true;
+  double max_depth_bound_m = kUnknown, volume_upper_m3 = kUnknown;
+  /// Truth: the floor is hidden in this frame (visible depth > 10 mm short of the true depth).
+  bool truth_floor_hidden = false;
 };
 
 /// Distribution of an error over the matched observations.
@@ -83,6 +89,21 @@ struct SimDamageEvaluation {
   DamageErrorStats visible_volume_error_pct;  ///< (measured − visible truth volume) / visible truth volume, %
   int occluded = 0;  ///< matched observations whose visible depth is > 10 mm less than the true depth
   int unconfirmable = 0;  ///< truth potholes in range left unscored: shallower than the σ_Z rule allows
+  /// The Done-when errors against the true values, scored only where the stage says it saw
+  /// the whole: max depth where floor_visible, volume where no volume_upper_m3 is stated.
+  DamageErrorStats seen_depth_error_mm, seen_volume_error_pct;
+  /// Where the stage says the floor is hidden: matches, and how many hold the true max depth
+  /// within the stated interval [max_depth_m − 2 σ_Z, max_depth_bound_m].
+  int hidden_matches = 0, hidden_depth_contained = 0;
+  DamageErrorStats hidden_bound_ratio;  ///< max_depth_bound_m / true max depth (how loose the bound is)
+  /// Where the stage states a volume upper bound: matches, and how many hold the true volume
+  /// within [volume_m3 − 2 σ_Z·area_m2, volume_upper_m3].
+  int volume_bounded_matches = 0, hidden_volume_contained = 0;
+  DamageErrorStats volume_upper_ratio;  ///< volume_upper_m3 / true volume
+  /// The flag against the truth (floor hidden by > 10 mm): agreements over the matches, and
+  /// the two kinds of disagreement.
+  int flag_agreements = 0, flagged_hidden_truth_seen = 0, flagged_seen_truth_hidden = 0;
+  int hidden_flag_detections = 0;  ///< pothole detections (as counted in `detections`) flagged hidden
   DamageErrorStats area_error_pct;     ///< (measured − truth) / truth area, %
   DamageErrorStats volume_error_pct;   ///< (measured − truth) / truth volume, %
   double depth_within_2sigma = 0;  ///< share of matches with |depth error| ≤ 2 σ_Z

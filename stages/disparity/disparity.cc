@@ -444,12 +444,24 @@ void AddRow(const float* __restrict row, int W, float sign, float* __restrict co
   for (int u = 0; u < W; ++u) col[u] += sign * row[u];
 }
 
+// Agreement the smooth window's value needs with the small window's (see RefineSubpixel), from the
+// small window's sum of G^2, squared: max(agree_px, kAgreeScale / sqrt(sum))^2 in 1/10000 px^2,
+// capped at 6.5 px^2 (uint16; no square root, so the loop vectorises).
+constexpr float kAgreeScale = 60.0f;
+void AgreeRow(const float* __restrict sum_d, int W, float agree_px, uint16_t* __restrict out) {
+  const float a2 = agree_px * agree_px, c2 = kAgreeScale * kAgreeScale;
+  for (int u = 0; u < W; ++u) {
+    const float t2 = std::max(a2, c2 / std::max(sum_d[u], 1.0f));
+    out[u] = static_cast<uint16_t>(static_cast<int>(std::min(65000.0f, t2 * 10000.0f)));  // truncation: never looser
+  }
+}
+
 // One refinement pass over the whole map `sgm` (SGM's values; their integer parts are the winners)
 // with a window x window window (see RefineSubpixel) into `out` (another Mat: no copy of `sgm`).
 // `terms`: the pixels whose intensities enter the sums (valid ones, possibly fewer); `valid`: the
-// pixels refined.
+// pixels refined. `agree` (optional): AgreeRow of this pass's sums, for the smooth window's merge.
 void RefinePass(const cv::Mat& ref_hp, const cv::Mat& target_hp, const cv::Mat& sgm, cv::Mat* out, const cv::Mat& valid,
-                const cv::Mat& terms, int window, float min_weight) {
+                const cv::Mat& terms, int window, float min_weight, cv::Mat* agree = nullptr, float agree_px = 0) {
   const int W = ref_hp.cols, H = ref_hp.rows, r = window / 2;
   // Bands of rows, each on its own: the terms of the band's rows and r rows either side (the
   // window's reach; recomputed by both neighbouring bands — cheaper than a second parallel pass
@@ -457,6 +469,7 @@ void RefinePass(const cv::Mat& ref_hp, const cv::Mat& target_hp, const cv::Mat& 
   constexpr int kBand = 96;  // the 21-px window's 20 halo rows cost 21 % of a band's terms
   CV_Assert(out->data != sgm.data);  // a band's halo rows are its neighbours' output rows
   out->create(sgm.size(), CV_32F);
+  if (agree) agree->create(sgm.size(), CV_16U);
   tbb::parallel_for(tbb::blocked_range<int>(0, H, kBand), [&](const tbb::blocked_range<int>& rows) {
     const int y0 = std::max(0, rows.begin() - r), y1 = std::min(H, rows.end() + r);
     std::vector<float> num(static_cast<size_t>(y1 - y0) * W), den(num.size());
@@ -477,6 +490,7 @@ void RefinePass(const cv::Mat& ref_hp, const cv::Mat& target_hp, const cv::Mat& 
       BoxRow(cn, W, r, sum_n.data());
       BoxRow(cd, W, r, sum_d.data());
       RefineApplyRow(sum_n.data(), sum_d.data(), valid.ptr<uint8_t>(v), W, min_weight, sgm.ptr<float>(v), out->ptr<float>(v));
+      if (agree) AgreeRow(sum_d.data(), W, agree_px, agree->ptr<uint16_t>(v));
     }
   });
 }
@@ -531,10 +545,22 @@ void RefineSubpixel(const cv::Mat& ref, const cv::Mat& target, cv::Mat* disparit
 void RefineSubpixel(const cv::Mat& ref, const cv::Mat& target, cv::Mat* disparity, const cv::Mat& valid,
                     const SubpixelRefineOptions& o) {
   if (o.window <= 0) return;
-  // Texture the window needs: a mean squared slope of 4 (2 grey levels per px; G = 24 x slope).
-  // Below it (inside a painted line, a shadow's flat core) the intensities say nothing and SGM's
-  // value stays.
+  // Texture the small window needs: a mean squared slope of 4 (2 grey levels per px; G = 24 x
+  // slope). Below it (inside a painted line, a shadow's flat core) the intensities say little at
+  // this size and SGM's value stays (lower gates here made false potholes on the obstacles preset).
   constexpr float kMinMeanWeight = 4.0f * 24.0f * 24.0f;
+  // The smooth window is gated on its own precision instead: its least-squares shift has a
+  // standard deviation of 24 sigma_e / sqrt(sum G^2) (sigma_e: the residual's noise, ~0.5 grey
+  // levels after the pre-smoothing), so sum G^2 >= 20000 keeps it below ~0.1 px. A mean-slope gate
+  // scaled by the window's area left the car view's far road (mean squared slope 0.3-2: only the
+  // 35 mm texture octave survives the renderer's prefilter beyond ~4 m) to SGM's values, whose
+  // 4-path aggregation streaks showed as a plaid of horizontal and vertical stripes in the depth.
+  constexpr float kSmoothMinWeight = 20000.0f;
+  // Agreement the smooth value needs with the small window's (AgreeRow): smooth_agree_px, or where
+  // larger ~5 standard deviations of the small window's own estimate (24 x 0.5 x 5 / sqrt(sum G^2)
+  // = kAgreeScale / sqrt(sum G^2); 40 gave a noisier car road, 80-160 blurred pothole walls more): on
+  // weak texture the small window's value is noise, and a fixed 0.2 px rejected the smooth value
+  // over most of the far road (car road EPE at 4.5-6 m 0.13 -> 0.10 px).
   auto min_weight = [](int w) { return kMinMeanWeight * static_cast<float>(w * w); };
   const bool smooth = o.smooth_window > o.window, edges = smooth && o.max_edge_coherence < 1;
   // High-pass both images (minus a local mean): the cameras' gain and vignetting differ, and an
@@ -548,10 +574,11 @@ void RefineSubpixel(const cv::Mat& ref, const cv::Mat& target, cv::Mat* disparit
                        [&] {
                          if (edges) EdgeDominated(ref, o.window, static_cast<float>(o.max_edge_coherence), &edge);
                        });
-  thread_local cv::Mat tls_sgm_in, tls_smooth, tls_terms;
-  cv::Mat &sgm_in = tls_sgm_in, &smoothed = tls_smooth, &terms = tls_terms;
+  thread_local cv::Mat tls_sgm_in, tls_smooth, tls_terms, tls_agree;
+  cv::Mat &sgm_in = tls_sgm_in, &smoothed = tls_smooth, &terms = tls_terms, &agree_map = tls_agree;
   disparity->copyTo(sgm_in);  // SGM's values: both passes read their integer winners there
-  RefinePass(ref_hp, target_hp, sgm_in, disparity, valid, valid, o.window, min_weight(o.window));
+  RefinePass(ref_hp, target_hp, sgm_in, disparity, valid, valid, o.window, min_weight(o.window), smooth ? &agree_map : nullptr,
+             static_cast<float>(o.smooth_agree_px));
   if (!smooth) return;
   // One straight, mostly vertical edge dominating the small window (a hard shadow, a paint edge):
   // the match rests on where each camera's pixel grid cut that edge, an error that varies slowly
@@ -559,15 +586,16 @@ void RefineSubpixel(const cv::Mat& ref, const cv::Mat& target, cv::Mat* disparit
   // instead of averaging out over texture. Such pixels give no terms to the smooth window, and
   // take its value: the texture around them.
   if (edges) cv::bitwise_and(valid, ~edge, terms);
-  RefinePass(ref_hp, target_hp, sgm_in, &smoothed, valid, edges ? terms : valid, o.smooth_window, min_weight(o.smooth_window));
+  RefinePass(ref_hp, target_hp, sgm_in, &smoothed, valid, edges ? terms : valid, o.smooth_window, kSmoothMinWeight);
   // Elsewhere the smooth window's value is taken where it agrees with the small window's within
   // smooth_agree_px (no structure the small window resolves and the large one would blur, e.g. a
   // pothole's wall), the value is at most smooth_max_px (the road and below it, not obstacles) and
   // no edge dominates the small one.
-  const float agree = static_cast<float>(o.smooth_agree_px), max_value = static_cast<float>(o.smooth_max_px);
+  const float max_value = static_cast<float>(o.smooth_max_px);
   tbb::parallel_for(tbb::blocked_range<int>(0, valid.rows, 32), [&](const tbb::blocked_range<int>& r) {
     for (int v = r.begin(); v < r.end(); ++v) {
       const float *__restrict b = smoothed.ptr<float>(v), *__restrict s0 = sgm_in.ptr<float>(v);
+      const uint16_t* __restrict agree2 = agree_map.ptr<uint16_t>(v);  // squared, 1/10000 px^2
       const uint8_t* __restrict e = edges ? edge.ptr<uint8_t>(v) : valid.ptr<uint8_t>(v);
       const uint8_t* __restrict m = valid.ptr<uint8_t>(v);
       float* __restrict d = disparity->ptr<float>(v);
@@ -577,8 +605,9 @@ void RefineSubpixel(const cv::Mat& ref, const cv::Mat& target, cv::Mat* disparit
         const int on_edge = static_cast<int>(e[u] != 0) & edge_bit;
         // On an edge: the smooth window's value where it refined the pixel (else the small
         // window's stays); elsewhere where both agree.
-        const int take = ok & ((on_edge & static_cast<int>(b[u] != s0[u])) |
-                               ((on_edge ^ 1) & static_cast<int>(std::abs(b[u] - d[u]) <= agree)));
+        const float diff = b[u] - d[u];
+        const int agrees = static_cast<int>(diff * diff * 10000.0f <= static_cast<float>(agree2[u]));
+        const int take = ok & ((on_edge & static_cast<int>(b[u] != s0[u])) | ((on_edge ^ 1) & agrees));
         d[u] = take ? b[u] : d[u];
       }
     }

@@ -134,8 +134,10 @@ void RefineSubpixel(const cv::Mat& ref, const cv::Mat& target, cv::Mat* disparit
 struct SubpixelRefineOptions {
   int window = 9;  ///< the refinement window, odd; 0 = no-op
   /// Larger window (odd; <= window = off): a second refinement from the input values (noise falls
-  /// with the window's area), taken where it agrees with the first within smooth_agree_px and the
-  /// first's value is at most smooth_max_px.
+  /// with the window's area), taken where it agrees with the first within smooth_agree_px (widened
+  /// to ~5 standard deviations of the first's estimate where its texture is weak) and the first's
+  /// value is at most smooth_max_px. Gated on its own precision (sum G^2), not on the first's
+  /// texture gate.
   int smooth_window = 0;
   double smooth_agree_px = 0.2;
   double smooth_max_px = 1e30;

@@ -3,7 +3,8 @@
 // [--paths 4|8] [--gpt-range N] [--threads N] [--only gpt-sgm|sgm|sgbm|sgbm-3way]
 // or: disparity_bench --fan2021 MODEL3_DIR [--out DIR] [--scale S] (real road pairs -> PNG previews)
 // or: disparity_bench --sim SURVEY_DIR [--sim SURVEY_DIR ...] [--sim-step N] [--sim-frames N]
-//     (simulated surveys: road D1 and pothole MAE beside StereoSGBM, docs/stages/disparity.md)
+//     [--sim-bands] (simulated surveys: road D1 and pothole MAE beside StereoSGBM; with --sim-bands
+//     GPT-SGM's road error by row band, docs/stages/disparity.md)
 // or: disparity_bench --euroc MAV0_DIR [--out DIR] (EuRoC ASL layout, rectified here -> previews,
 //     floor density)
 // Any run: --set NAME=JSON_VALUE sets a stage option (names as in `roadsurvey stages disparity`).
@@ -13,6 +14,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <exception>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -207,9 +209,49 @@ void WriteErrorMap(const rs::StereoPairWithTruth& p, const rs::DisparityParams& 
   std::string name = p.name;
   std::replace(name.begin(), name.end(), '/', '_');
   cv::imwrite(out + "/" + name + "_errors.png", img);
+  // Signed error on the road, 128 + 400 err grey levels (+-0.32 px saturates): stripes and bands
+  // the colour classes hide.
+  cv::Mat signed_err(p.gt.size(), CV_8UC1, cv::Scalar(0));
+  for (int v = 0; v < p.gt.rows; ++v)
+    for (int u = 0; u < p.gt.cols; ++u)
+      if (p.road.at<uint8_t>(v, u) && r.valid.at<uint8_t>(v, u))
+        signed_err.at<uint8_t>(v, u) = cv::saturate_cast<uint8_t>(128 + 400 * (r.disparity.at<float>(v, u) - p.gt.at<float>(v, u)));
+  cv::imwrite(out + "/" + name + "_signed.png", signed_err);
   std::printf("%s: road model %s (matches %d, inliers %d, rms %.2f px, c = %.2f %.4f %.4f), fell back %d, range %d\n",
               p.name.c_str(), r.road.reliable ? "reliable" : "unreliable", r.road.num_matches, r.road.num_inliers,
               r.road.residual_rms_px, r.road.c[0], r.road.c[1], r.road.c[2], r.fell_back, r.num_disparities);
+}
+
+// Road error of GPT-SGM by row band (a forward view's range bins) per survey, pooled over its
+// frames, plus each frame's overall line: "--sim-bands" (docs/stages/disparity.md, "Far road of
+// the car view").
+void PrintRoadBands(const std::vector<rs::StereoPairWithTruth>& pairs, const rs::DisparityParams& params) {
+  std::map<std::string, std::pair<std::vector<rs::RoadBandStats>, rs::RoadErrorStats>> pooled;
+  std::vector<std::string> order;
+  for (const auto& p : pairs) {
+    const rs::DisparityResult r = rs::ComputeDisparity(p.left, p.right, params);
+    const int H = p.gt.rows;
+    std::vector<int> edges;
+    for (int e : {0, 280, 360, 440, 520, 600, 720}) edges.push_back(e * H / 720);
+    const auto bands = rs::MeasureRoadErrorsByRows(p, r.disparity, r.valid, edges);
+    const auto all = rs::MeasureRoadErrors(p, r.disparity, r.valid);
+    const std::string survey = p.name.substr(0, p.name.rfind('/'));
+    auto& [acc, acc_all] = pooled[survey];
+    if (acc.empty()) acc = bands, order.push_back(survey);
+    else for (size_t b = 0; b < bands.size(); ++b) acc[b].Add(bands[b]);
+    acc_all.Add(all);
+    std::printf("%s: fell back %d; %s\n", p.name.c_str(), r.fell_back ? 1 : 0, all.Format().c_str());
+  }
+  for (const auto& survey : order) {
+    const auto& [acc, all] = pooled[survey];
+    std::printf("\n%s (%s)\n| rows | road px | valid | mean truth d px | EPE px (|e|<=1) | signed mean px | row stripe RMS px | share |e|>1 |\n|---|---|---|---|---|---|---|---|\n",
+                survey.c_str(), all.Format().c_str());
+    for (const auto& b : acc)
+      if (b.road)
+        std::printf("| %d-%d | %lld | %.2f %% | %.1f | %.4f | %+.4f | %.4f | %.2f %% |\n", b.row_begin, b.row_end,
+                    static_cast<long long>(b.road), 100.0 * b.valid / b.road, b.MeanTruth(), b.Epe(), b.SignedMean(),
+                    b.StripeRms(), b.valid ? 100.0 * (b.valid - b.within_1) / b.valid : 0.0);
+  }
 }
 
 int main(int argc, char** argv) {
@@ -222,6 +264,7 @@ int main(int argc, char** argv) {
   double fan_scale = 0.5;
   std::vector<std::string> sims;
   int sim_range = 0;  // > 0: plain-SGM range of the simulated pairs instead of their truth's
+  bool sim_bands = false;  // GPT-SGM's road error by row band instead of the benchmark table
   rs::SimulatedPairOptions sim_options;
   nlohmann::json option_json = rs::DisparityStageOptions::Table().ToJson(rs::DisparityStageOptions{});
   for (int i = 1; i < argc; ++i) {
@@ -241,6 +284,7 @@ int main(int argc, char** argv) {
     else if (!std::strcmp(argv[i], "--sim-frames") && i + 1 < argc) sim_options.max_frames = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "--sim-first") && i + 1 < argc) sim_options.first_frame = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "--sim-range") && i + 1 < argc) sim_range = std::atoi(argv[++i]);
+    else if (!std::strcmp(argv[i], "--sim-bands")) sim_bands = true;
     else if (!std::strcmp(argv[i], "--set") && i + 1 < argc) {
       const std::string kv = argv[++i];
       const auto eq = kv.find('=');
@@ -261,7 +305,7 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "usage: disparity_bench [--data DIR] [--reps N] [--no-middlebury] [--paths 4|8] [--gpt-range N] [--threads N] [--only METHOD]\n"
                          "       disparity_bench --fan2021 MODEL3_DIR [--out DIR] [--scale S]\n"
                          "       disparity_bench --euroc MAV0_DIR [--out DIR]\n"
-                         "       disparity_bench --sim SURVEY_DIR... [--sim-step N] [--sim-frames N] [--sim-first N] [--sim-range N]\n"
+                         "       disparity_bench --sim SURVEY_DIR... [--sim-step N] [--sim-frames N] [--sim-first N] [--sim-range N] [--sim-bands]\n"
                          "       (any: --set OPTION=VALUE)\n");
       return 2;
     }
@@ -283,6 +327,10 @@ int main(int argc, char** argv) {
       }
       if (sim_range > 0)
         for (auto& p : pairs) p.num_disparities = sim_range;
+      if (sim_bands) {
+        PrintRoadBands(pairs, params);
+        return 0;
+      }
       if (!out_dir.empty()) {
         for (const auto& p : pairs) WriteErrorMap(p, params, out_dir);
         return 0;

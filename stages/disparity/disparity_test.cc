@@ -1,4 +1,5 @@
 #include "stages/disparity/disparity.h"
+#include "stages/disparity/sim_disparity_eval.h"
 #include "tests/support/test_data.h"
 
 #include <algorithm>
@@ -319,6 +320,50 @@ TEST(Disparity, RefineSubpixelRecoversShift) {
 // largest) it lowers the error without bias; where one hard vertical edge disagrees with the
 // texture around it (a matching error the pixel grid makes of a hard edge, as along a simulated
 // shadow), the edge's pixels take the texture's value instead of the edge's.
+// Weak texture (the far road of a forward view: a mean squared slope below the small window's
+// gate of 4 grey levels^2 per px^2) under SGM values with horizontal and vertical streaks (4-path
+// aggregation on weak texture): the smooth window, gated on its own precision and taken within
+// the small window's own uncertainty, removes the streaks; before, both windows left SGM's values
+// there (row stripe 0.2 px).
+TEST(Disparity, RefineSubpixelSmoothWindowWeakTexture) {
+  const int W = 240, H = 100;
+  const double shift = 5.3;
+  cv::Mat left(H, W, CV_8U), target(H, W, CV_8U);
+  cv::RNG rng(11);
+  for (int v = 0; v < H; ++v)
+    for (int u = 0; u < W; ++u) {
+      left.at<uint8_t>(v, u) = cv::saturate_cast<uint8_t>(128 + 0.04 * (Texture(u, v) - 128) + rng.gaussian(0.5));
+      target.at<uint8_t>(v, u) = cv::saturate_cast<uint8_t>(128 + 0.04 * (Texture(u + shift, v) - 128) + rng.gaussian(0.5));
+    }
+  cv::GaussianBlur(left, left, cv::Size(0, 0), 1.0), cv::GaussianBlur(target, target, cv::Size(0, 0), 1.0);
+  double slope2 = 0;
+  for (int v = 0; v < H; ++v)
+    for (int u = 1; u + 1 < W; ++u) slope2 += std::pow((left.at<uint8_t>(v, u + 1) - left.at<uint8_t>(v, u - 1)) / 2.0, 2);
+  slope2 /= H * (W - 2);
+  ASSERT_LT(slope2, 4.0) << "the premise: texture below the small window's gate";
+  ASSERT_GT(slope2, 0.3);
+  // SGM's streaks: +-0.2 px on alternate 3-row stripes, +-0.1 px on 4-column stripes.
+  cv::Mat d(H, W, CV_32F), valid(H, W, CV_8U, cv::Scalar(255));
+  for (int v = 0; v < H; ++v)
+    for (int u = 0; u < W; ++u)
+      d.at<float>(v, u) = static_cast<float>(shift + ((v / 3) % 2 ? 0.2 : -0.2) + ((u / 4) % 2 ? 0.1 : -0.1));
+  StereoPairWithTruth p;
+  p.gt = cv::Mat(H, W, CV_32F, cv::Scalar(shift));
+  p.road = cv::Mat::zeros(H, W, CV_8U);
+  p.road(cv::Rect(30, 0, W - 60, H)).setTo(255);
+  const std::vector<int> rows = {20, H - 20};
+  const auto before = MeasureRoadErrorsByRows(p, d, valid, rows);
+  SubpixelRefineOptions o;
+  o.smooth_window = 21, o.max_edge_coherence = 0.7;
+  RefineSubpixel(left, target, &d, valid, o);
+  const auto after = MeasureRoadErrorsByRows(p, d, valid, rows);
+  ASSERT_EQ(after.size(), 1u);
+  EXPECT_GT(before[0].StripeRms(), 0.15);
+  EXPECT_LT(after[0].StripeRms(), 0.03) << "before " << before[0].StripeRms();
+  EXPECT_LT(after[0].Epe(), 0.08) << "before " << before[0].Epe();
+  EXPECT_LT(std::abs(after[0].SignedMean()), 0.03);
+}
+
 TEST(Disparity, RefineSubpixelSmoothWindow) {
   const int W = 200, H = 80;
   const double shift = 5.5;

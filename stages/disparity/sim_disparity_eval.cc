@@ -264,4 +264,54 @@ RoadErrorStats MeasureRoadErrors(const StereoPairWithTruth& p, const cv::Mat& di
   return s;
 }
 
+void RoadBandStats::Add(const RoadBandStats& o) {
+  road += o.road, valid += o.valid, within_1 += o.within_1;
+  abs_sum += o.abs_sum, signed_sum += o.signed_sum, gt_sum += o.gt_sum;
+  stripe_sq_sum += o.stripe_sq_sum, stripe_rows += o.stripe_rows;
+}
+
+std::vector<RoadBandStats> MeasureRoadErrorsByRows(const StereoPairWithTruth& p, const cv::Mat& disparity,
+                                                   const cv::Mat& valid, const std::vector<int>& edges) {
+  std::vector<RoadBandStats> bands(edges.size() < 2 ? 0 : edges.size() - 1);
+  for (size_t b = 0; b < bands.size(); ++b) bands[b].row_begin = edges[b], bands[b].row_end = edges[b + 1];
+  const int H = p.gt.rows, W = p.gt.cols;
+  std::vector<double> row_mean(H, 0.0);
+  std::vector<uint8_t> row_ok(H, 0);
+  auto band_of = [&](int v) -> RoadBandStats* {
+    for (auto& b : bands)
+      if (v >= b.row_begin && v < b.row_end) return &b;
+    return nullptr;
+  };
+  for (int v = 0; v < H; ++v) {
+    if (p.road.empty()) break;
+    const float *g = p.gt.ptr<float>(v), *d = disparity.ptr<float>(v);
+    const uint8_t *m = valid.ptr<uint8_t>(v), *road = p.road.ptr<uint8_t>(v);
+    RoadBandStats* b = band_of(v);
+    double sum = 0;
+    int64_t n = 0;
+    for (int u = 0; u < W; ++u) {
+      if (!road[u] || !(g[u] > 0)) continue;
+      if (b) ++b->road;
+      if (!m[u]) continue;
+      if (b) ++b->valid;
+      const double e = double(d[u]) - double(g[u]);
+      if (std::abs(e) > 1) continue;
+      sum += e, ++n;
+      if (b) ++b->within_1, b->abs_sum += std::abs(e), b->signed_sum += e, b->gt_sum += g[u];
+    }
+    if (n >= RoadBandStats::kMinRowPixels) row_mean[v] = sum / double(n), row_ok[v] = 1;
+  }
+  for (int v = 0; v < H; ++v) {
+    RoadBandStats* b = band_of(v);
+    if (!b || !row_ok[v]) continue;
+    double sum = 0;
+    int n = 0;
+    for (int y = std::max(0, v - RoadBandStats::kStripeHalf); y <= std::min(H - 1, v + RoadBandStats::kStripeHalf); ++y)
+      if (row_ok[y]) sum += row_mean[y], ++n;
+    const double dev = row_mean[v] - sum / n;
+    b->stripe_sq_sum += dev * dev, ++b->stripe_rows;
+  }
+  return bands;
+}
+
 }  // namespace rs

@@ -14,6 +14,7 @@
 //   pothole  visible and in the truth mask of a damage whose type is "pothole" (damages.geojson).
 
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <filesystem>
 #include <string>
@@ -76,6 +77,31 @@ struct RoadErrorStats {
   /// share > 0.25 px per column third, pothole MAE.
   std::string Format() const;
 };
+
+/// Road error of a band of image rows: on a forward view (the `car` preset) a row band is a range
+/// bin. Besides EPE and bias, the row-to-row wobble of the error ("stripe"): each row's mean signed
+/// error (rows with >= kMinRowPixels valid road pixels, |err| <= 1 px) minus the mean of the rows
+/// within +-kStripeHalf, RMS over the band's rows — what a damage stage fitting the road over a
+/// few rows sees as horizontal stripes. Additive over pairs (Add).
+struct RoadBandStats {
+  static constexpr int kMinRowPixels = 30, kStripeHalf = 4;
+  int row_begin = 0, row_end = 0;               ///< rows [row_begin, row_end)
+  int64_t road = 0, valid = 0;                  ///< road pixels with truth; with a valid estimate
+  int64_t within_1 = 0;                         ///< valid road pixels with |err| <= 1 px
+  double abs_sum = 0, signed_sum = 0, gt_sum = 0;  ///< over the within_1 pixels
+  double stripe_sq_sum = 0;                     ///< sum over rows of the squared row-mean deviation
+  int64_t stripe_rows = 0;                      ///< rows in stripe_sq_sum
+
+  void Add(const RoadBandStats& other);
+  double Epe() const { return within_1 ? abs_sum / double(within_1) : 0; }  ///< mean |err| (|err| <= 1), px
+  double SignedMean() const { return within_1 ? signed_sum / double(within_1) : 0; }
+  double MeanTruth() const { return within_1 ? gt_sum / double(within_1) : 0; }  ///< mean truth disparity, px
+  double StripeRms() const { return stripe_rows ? std::sqrt(stripe_sq_sum / double(stripe_rows)) : 0; }
+};
+
+/// RoadBandStats of `disparity` over p.road for the row bands [edges[i], edges[i + 1]).
+std::vector<RoadBandStats> MeasureRoadErrorsByRows(const StereoPairWithTruth& p, const cv::Mat& disparity,
+                                                   const cv::Mat& valid, const std::vector<int>& edges);
 
 /// Error statistics of `disparity` (CV_32F, valid where `valid` != 0) against p.gt over p.road and
 /// p.pothole.

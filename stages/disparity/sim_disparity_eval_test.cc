@@ -188,6 +188,37 @@ TEST(SimDisparityEval, RoadErrorStatsCountsSignedErrors) {
   EXPECT_NEAR(twice.RoadEpe(), s.RoadEpe(), 1e-12);
 }
 
+// Row bands: EPE, bias and the row-to-row stripe of known errors. Rows alternate +0.1 / -0.1 px,
+// so each row's mean deviates from the 9-row mean around it (5 rows of its sign, 4 of the other)
+// by 0.1 - 0.1 / 9 px.
+TEST(SimDisparityEval, RoadBandsMeasureRowStripes) {
+  const int W = 80, H = 60;
+  StereoPairWithTruth p;
+  p.gt = cv::Mat(H, W, CV_32F, cv::Scalar(40.0f));
+  p.road = cv::Mat(H, W, CV_8U, cv::Scalar(255));
+  cv::Mat d(H, W, CV_32F), valid(H, W, CV_8U, cv::Scalar(255));
+  for (int v = 0; v < H; ++v) d.row(v).setTo(v % 2 ? 39.9f : 40.1f);
+  valid.at<uint8_t>(20, 5) = 0;  // an invalid road pixel: counted in road, not in valid
+  d.at<float>(30, 7) = 43.0f;    // beyond 1 px: valid, left out of EPE and the row means
+  const auto bands = MeasureRoadErrorsByRows(p, d, valid, {10, 30, 50});
+  ASSERT_EQ(bands.size(), 2u);
+  EXPECT_EQ(bands[0].road, 20 * W);
+  EXPECT_EQ(bands[0].valid, 20 * W - 1);
+  EXPECT_EQ(bands[1].within_1, 20 * W - 1);
+  for (const auto& b : bands) {
+    EXPECT_NEAR(b.Epe(), 0.1, 1e-5);
+    EXPECT_NEAR(b.MeanTruth(), 40.0, 1e-5);
+    EXPECT_NEAR(b.StripeRms(), 0.1 - 0.1 / 9, 1e-4);
+    EXPECT_EQ(b.stripe_rows, 20);
+  }
+  EXPECT_NEAR(bands[0].SignedMean(), 0.0, 1e-4);
+  // Pooled over two pairs: the same ratios.
+  RoadBandStats pooled = bands[0];
+  pooled.Add(bands[0]);
+  EXPECT_NEAR(pooled.StripeRms(), bands[0].StripeRms(), 1e-9);
+  EXPECT_EQ(pooled.road, 2 * bands[0].road);
+}
+
 TEST(SimDisparityEval, MissingTruthNamesTheFile) {
   const fs::path dir = fs::temp_directory_path() / ("rs_sim_disparity_empty_" + std::to_string(::getpid()));
   fs::create_directories(dir / "truth");

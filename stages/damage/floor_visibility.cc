@@ -1,0 +1,184 @@
+#include "stages/damage/floor_visibility.h"
+
+#include "stages/damage/measure.h"
+
+#include <Eigen/Dense>
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+namespace rs {
+namespace {
+
+// One labelled pixel in road coordinates: where its ray crosses the road (x along the view,
+// y across it), the tangent of its elevation over the road, and the seen depth (NaN: none).
+struct RayPoint {
+  double x, y, tan_e, depth_m;
+  int strip = 0;
+};
+
+// Per lateral strip: the near rim (the nearest crossing) and the tangent of the ray over it.
+struct Strip {
+  double x_rim = 1e300, tan_rim = 0;
+  double shadow_edge_depth_m = 0;  ///< deepest seen depth of the rays grazing the rim (on the shadow line)
+};
+
+// Volume per metre of width the shadow of one strip can hide beyond what the measurement
+// already holds. The stretch [0, L] behind the rim is seen by no ray; its floor lies below the
+// shadow line (depth > x·tan e) and, with walls no steeper than `slope` on average, above the
+// "V" between its two seen ends, min(slope·x, d + slope·(L − x)) (d: the depth where the
+// grazing rays meet the surface), and above `cap`. The measured volume (crossing area × seen
+// depth) already counts the shadow triangle d·L/2: integrating depth over where the rays cross
+// the road maps [0, x_far] onto the seen part [L, x_far] and adds d²/(2 tan e).
+double HiddenExtraArea(double length_m, double seen_m, double slope, double cap_m) {
+  constexpr int kSteps = 64;
+  double area = 0;
+  for (int i = 0; i < kSteps; ++i) {
+    const double x = (i + 0.5) * length_m / kSteps;
+    area += std::min({slope * x, seen_m + slope * (length_m - x), cap_m});
+  }
+  return std::max(0.0, area * length_m / kSteps - seen_m * length_m / 2);
+}
+
+}  // namespace
+
+FloorVisibility AnalyseFloorVisibility(const cv::Mat& labels, int id, const cv::Rect& box, const RoadRelief& r,
+                                       const StereoGeometry& g, const RoadSurface& s, const MeasureOptions& o,
+                                       double max_depth_m, double volume_m3, double area_m2, double sigma_depth_m) {
+  FloorVisibility out;
+  if (!(max_depth_m > 0) || box.empty()) return out;
+  const Eigen::Vector3d n = s.normal;  // unit, towards the camera
+  const Eigen::Vector3d foot = n.dot(s.origin_m) * n;  // the camera centre (origin) dropped onto the plane
+  std::vector<RayPoint> pts;
+  std::vector<Eigen::Vector3d> horizontal;
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  double z_sum = 0, n_dot_ray_sum = 0;
+  for (int v = box.y; v < box.y + box.height; ++v) {
+    const uint16_t* l = labels.ptr<uint16_t>(v);
+    const float* zr = r.road_depth_m.ptr<float>(v);
+    const float* dr = r.depth_below_mm.ptr<float>(v);
+    for (int u = box.x; u < box.x + box.width; ++u) {
+      if (l[u] != id || !std::isfinite(zr[u])) continue;
+      const Eigen::Vector3d ray((u - g.cx_px) / g.f_px, (v - g.cy_px) / g.f_px, 1.0);
+      const Eigen::Vector3d p = double(zr[u]) * ray;  // where the ray crosses the road
+      Eigen::Vector3d h = p - foot;
+      h -= n * n.dot(h);
+      const double sin_e = std::abs(n.dot(ray.normalized()));
+      const double tan_e = sin_e / std::max(1e-9, std::sqrt(1 - sin_e * sin_e));
+      pts.push_back({0, 0, tan_e, std::isfinite(dr[u]) ? dr[u] / 1000.0 : kUnknown});
+      horizontal.push_back(h);
+      mean += h;
+      z_sum += zr[u];
+      n_dot_ray_sum += std::abs(n.dot(ray));
+    }
+  }
+  if (pts.empty()) return out;
+  out.analysed = true;
+  const double z_mean = z_sum / pts.size();
+  // Height noise of a seen point: a range error ΔZ moves it along its ray by ΔZ·|n·ray|.
+  const double sigma_height_m = sigma_depth_m * n_dot_ray_sum / pts.size();
+  mean /= double(pts.size());
+  if (mean.norm() < 1e-6) {  // straight below the camera: every ray is steep, nothing hides
+    out.grazing_angle_deg = 90;
+    return out;
+  }
+  const Eigen::Vector3d along = mean.normalized(), across = n.cross(along);
+  for (size_t i = 0; i < pts.size(); ++i) pts[i].x = along.dot(horizontal[i]), pts[i].y = across.dot(horizontal[i]);
+
+  // Lateral strips 1.5 pixels wide (a pixel covers Z/f across the view): each holds about one
+  // image column. Its near rim is where the rays first see the depression (the nearest crossing
+  // seeing a quarter of the max depth): the label itself starts a row or two nearer (the rim
+  // extension, the smoothing's halo), which would count as clearance. Behind a rim that hides
+  // the floor the depth jumps there to the shadow line; over a visible wall it rises gradually.
+  const double strip_m = 1.5 * z_mean / g.f_px;
+  const double rim_depth_m = 0.25 * max_depth_m;
+  double y_min = 1e300, y_max = -1e300;
+  for (const RayPoint& p : pts) y_min = std::min(y_min, p.y), y_max = std::max(y_max, p.y);
+  std::vector<Strip> strips(static_cast<size_t>((y_max - y_min) / strip_m) + 1);
+  for (RayPoint& p : pts) p.strip = std::min(static_cast<int>((p.y - y_min) / strip_m), int(strips.size()) - 1);
+  auto strip_of = [&](const RayPoint& p) -> Strip& { return strips[p.strip]; };
+  for (const RayPoint& p : pts) {
+    if (!(p.depth_m >= rim_depth_m)) continue;  // NaN: no depth seen
+    Strip& st = strip_of(p);
+    if (p.x < st.x_rim) st.x_rim = p.x, st.tan_rim = p.tan_e;
+  }
+  // Clearance of a seen point: the shadow line at its position minus its depth. The point lies
+  // d/tan e behind its own crossing, so the clearance is (crossing − rim)·tan e: fixed by the
+  // pixel and the road model, not by the (noisy) range; one image row adds about Z/f.
+  auto clearance = [&](const RayPoint& p, const Strip& st) {
+    const double x_hit = p.x + p.depth_m / p.tan_e;
+    return (x_hit - st.x_rim) * st.tan_rim - p.depth_m;
+  };
+  const double margin_m = o.floor_clearance_px * z_mean / g.f_px;
+  // The rays grazing the rim: the first two rows behind it (the relief is smoothed over about
+  // three rows along the view at a car's range).
+  const double edge_m = 2 * z_mean / g.f_px;
+  // The deepest seen part (within 10 % of the max depth or the height noise): the floor counts
+  // as seen when some of it stands clear of the shadow line by the margin.
+  const double deep_m = max_depth_m - std::max(0.1 * max_depth_m, sigma_height_m);
+  double best_clearance = -1e300, tan_sum = 0;
+  int tan_n = 0;
+  for (const RayPoint& p : pts) {
+    if (!(p.depth_m >= rim_depth_m)) continue;
+    Strip& st = strip_of(p);
+    const double c = clearance(p, st);
+    if (p.depth_m >= deep_m) {
+      best_clearance = std::max(best_clearance, c);
+      tan_sum += st.tan_rim, ++tan_n;
+    }
+    if (c < edge_m) st.shadow_edge_depth_m = std::max(st.shadow_edge_depth_m, p.depth_m);
+  }
+  if (tan_n == 0) return out;
+  const double tan_rim = tan_sum / tan_n;
+  out.grazing_angle_deg = std::atan(tan_rim) * 180.0 / CV_PI;
+  out.rim_clearance_m = best_clearance;
+  out.floor_visible = best_clearance >= margin_m;
+  // Per strip the stretch behind the rim no ray reaches ends where the grazing rays meet the
+  // surface (depth d at d/tan e). Between the rim (depth 0) and that point the floor can be no
+  // deeper than walls of the assumed slope allow from both ends. A seen floor caps it: that
+  // stretch holds volume (the near wall's wedge) but, the floor being seen, no deeper point.
+  const double slope = o.hidden_wall_slope;
+  // The stated interval of a seen max depth is ±2 σ_Z (σ_Z, not the smaller height noise: the
+  // disparity's errors at a rim are not those of a flat road).
+  const double cap = out.floor_visible ? max_depth_m + 2 * sigma_depth_m : 1e300;
+  double bound = 0, hidden_volume = 0, longest = 0;
+  for (const Strip& st : strips) {
+    const double d = st.shadow_edge_depth_m;
+    if (!(d > 0) || !(st.tan_rim > 0)) continue;
+    const double length = d / st.tan_rim;
+    longest = std::max(longest, length);
+    // The bound's own noise: d carries the height noise, scaled like the bound.
+    const double gain = std::max(1.0, (slope / st.tan_rim + 1) / 2);
+    bound = std::max(bound, gain * (d + 2 * sigma_height_m));
+    hidden_volume += strip_m * HiddenExtraArea(length, d, slope, std::min(cap, gain * (d + 2 * sigma_height_m)));
+  }
+  out.hidden_length_m = longest;
+  const double volume_noise = 2 * sigma_depth_m * area_m2;  // the lower bound's term, stated alike
+  // The volume counts as seen when the shadow could hide at most 5 % of it (a third of the
+  // 15 % a volume is graded by); the stereo noise is stated apart (σ_Z).
+  if (!out.floor_visible || hidden_volume > 0.05 * volume_m3)
+    out.volume_upper_m3 = volume_m3 + hidden_volume + volume_noise;
+  if (!out.floor_visible) out.max_depth_bound_m = std::max(bound, max_depth_m + 2 * sigma_depth_m);
+  return out;
+}
+
+void AnalyseFloorVisibility(std::vector<DamageInstance>& instances, const cv::Mat& labels, const RoadRelief& r,
+                            const StereoGeometry& g, const RoadSurface& s, const MeasureOptions& o) {
+  const std::vector<cv::Rect> boxes = LabelBoxes(labels);
+  for (DamageInstance& d : instances) {
+    if (d.type == DamageType::kCrack || !std::isfinite(d.max_depth_m) || d.id >= static_cast<int>(boxes.size()))
+      continue;
+    const FloorVisibility f =
+        AnalyseFloorVisibility(labels, d.id, boxes[d.id], r, g, s, o, d.max_depth_m, d.volume_m3, d.area_m2,
+                               d.sigma_depth_m);
+    if (!f.analysed) continue;
+    d.floor_visible = f.floor_visible;
+    d.grazing_angle_deg = f.grazing_angle_deg;
+    d.hidden_length_m = f.hidden_length_m;
+    d.max_depth_bound_m = f.max_depth_bound_m;
+    d.volume_upper_m3 = f.volume_upper_m3;
+  }
+}
+
+}  // namespace rs

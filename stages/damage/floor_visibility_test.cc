@@ -1,0 +1,117 @@
+#include "stages/damage/floor_visibility.h"
+
+#include "stages/damage/damage_output.h"
+#include "stages/damage/damage_pipeline.h"
+
+#include <Eigen/Dense>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <cstdio>
+
+namespace rs {
+namespace {
+
+// A spherical-cap pothole ray-traced exactly (SyntheticRoadScene: the near wall hides what
+// lies behind it), seen from a camera `height_m` above the road, pitched `pitch_deg`.
+struct Case {
+  double height_m, pitch_deg, depth_m, radius_m, z_m;
+};
+
+struct Truth {
+  double visible_depth_m = 0;  ///< deepest point any pixel sees (noise-free render)
+  double tan_rim = 0;          ///< elevation of the ray to the near rim
+};
+
+SyntheticRoadScene Scene(const Case& c) {
+  SyntheticRoadScene s;
+  s.geometry.baseline_m = 0.3;  // the simulator's rig: analysed range 7.7 m
+  s.height_m = c.height_m, s.pitch_deg = c.pitch_deg;
+  s.pothole_depth_m = c.depth_m, s.pothole_radius_m = c.radius_m, s.pothole_z_m = c.z_m;
+  s.sigma_d_px = 0.02;
+  return s;
+}
+
+// What the frame can see, from the noise-free render: the largest depth below the road plane
+// of any seen point, and the near rim's ray elevation (scene frame as in synthetic_scene.cc).
+Truth TruthOf(const Case& c) {
+  SyntheticRoadScene s = Scene(c);
+  s.sigma_d_px = 0;
+  const cv::Mat disp = s.Render();
+  const double th = c.pitch_deg * CV_PI / 180;
+  const Eigen::Vector3d up(0, -std::cos(th), -std::sin(th));
+  Truth t;
+  for (int v = 0; v < disp.rows; ++v)
+    for (int u = 0; u < disp.cols; ++u) {
+      const float d = disp.at<float>(v, u);
+      if (!(d > 0)) continue;
+      const double z = s.geometry.f_px * s.geometry.baseline_m / d;
+      const Eigen::Vector3d p((u - s.geometry.cx_px) * z / s.geometry.f_px, (v - s.geometry.cy_px) * z / s.geometry.f_px, z);
+      t.visible_depth_m = std::max(t.visible_depth_m, -(up.dot(p) + c.height_m));
+    }
+  const double yz = (-c.height_m / c.z_m - up.z()) / up.y();
+  const Eigen::Vector3d centre = c.z_m * Eigen::Vector3d(0, yz, 1), along = up.cross(Eigen::Vector3d::UnitX());
+  const Eigen::Vector3d rim = centre - c.radius_m * along, foot = -c.height_m * up;
+  t.tan_rim = c.height_m / along.dot(rim - foot);
+  return t;
+}
+
+// Runs the whole frame (DetectDamage calls the analysis) and checks the flag and the bounds
+// against the exact geometry. Returns the single detection.
+DamageInstance Check(const Case& c, bool expect_visible) {
+  const SyntheticRoadScene scene = Scene(c);
+  const Truth truth = TruthOf(c);
+  const FrameDamage f = DetectDamage(scene.Render(), cv::Mat(), scene.geometry, DamageOptions());
+  EXPECT_EQ(f.instances.size(), 1u);
+  if (f.instances.empty()) return {};
+  const DamageInstance& d = f.instances[0];
+  const double hidden_m = c.depth_m - truth.visible_depth_m;
+  std::printf("cap %.0f mm / %.0f mm at %.1f m, pitch %.0f: visible %.1f mm (hidden %.1f), measured %.1f mm, "
+              "sigma_Z %.1f mm, e %.1f deg (truth %.1f), floor %s, bound %.1f mm, volume %.6f (upper %.6f, true %.6f)\n",
+              c.depth_m * 1000, c.radius_m * 1000, c.z_m, c.pitch_deg, truth.visible_depth_m * 1000, hidden_m * 1000,
+              d.max_depth_m * 1000, d.sigma_depth_m * 1000, d.grazing_angle_deg,
+              std::atan(truth.tan_rim) * 180 / CV_PI, d.floor_visible ? "seen" : "hidden", d.max_depth_bound_m * 1000,
+              d.volume_m3, d.volume_upper_m3, scene.TrueVolumeM3());
+  // The geometry's own verdict: this cap's floor hidden by more than 10 mm, or seen.
+  EXPECT_EQ(hidden_m <= 0.010, expect_visible) << "test case does not show what it is meant to";
+  EXPECT_EQ(d.floor_visible, expect_visible);
+  // The grazing angle over the near rim (the rim detected within a pixel or two; at steep
+  // views the angle varies across the pothole by more than that).
+  if (c.pitch_deg < 30) {
+    EXPECT_NEAR(d.grazing_angle_deg, std::atan(truth.tan_rim) * 180 / CV_PI, 1.5);
+  }
+  // Lower bound: measured − 2 σ_Z never exceeds the truth.
+  EXPECT_LE(d.max_depth_m - 2 * d.sigma_depth_m, c.depth_m);
+  if (expect_visible) {
+    EXPECT_NEAR(d.max_depth_m, c.depth_m, 0.010);  // the Done-when bound where the floor is seen
+    EXPECT_TRUE(std::isnan(d.max_depth_bound_m));
+    EXPECT_TRUE(std::isnan(d.volume_upper_m3));
+  } else {
+    EXPECT_LT(d.max_depth_m, c.depth_m - 0.010);    // what the frame shows falls short
+    EXPECT_GE(d.max_depth_bound_m, c.depth_m);      // the bound holds the truth
+    EXPECT_LE(d.max_depth_bound_m, 4 * c.depth_m);  // and says something
+    EXPECT_GE(d.volume_upper_m3, scene.TrueVolumeM3());
+    EXPECT_LT(d.volume_m3, scene.TrueVolumeM3());
+    EXPECT_GT(d.hidden_length_m, 0.0);
+    EXPECT_LT(d.hidden_length_m, 2 * c.radius_m);
+  }
+  // The detections JSON carries the verdict; unknown bounds are null, never 0.
+  const nlohmann::json j = DetectionsToJson({d})["detections"][0];
+  EXPECT_EQ(j["floor_visible"].get<bool>(), expect_visible);
+  EXPECT_EQ(j["max_depth_bound_m"].is_null(), expect_visible);
+  EXPECT_EQ(j["volume_upper_m3"].is_null(), expect_visible);
+  return d;
+}
+
+// A car's view (1.5 m, pitched 15°): a deep cap at 6 m (grazing ~14°) hides its floor.
+TEST(FloorVisibility, CarDeepCapHidden) { Check({1.5, 15, 0.08, 0.15, 6.0}, false); }
+TEST(FloorVisibility, CarDeeperCapNearerHidden) { Check({1.5, 15, 0.12, 0.15, 5.0}, false); }
+// The same view, a shallow wide cap: the rays reach its floor.
+TEST(FloorVisibility, CarShallowCapSeen) { Check({1.5, 15, 0.025, 0.3, 5.0}, true); }
+// The deep cap seen steeply (45° pitch at 2.2 m, and a drone 4 m up pitched 80°): nothing hidden.
+TEST(FloorVisibility, SteepViewSeen) { Check({1.5, 45, 0.08, 0.15, 2.2}, true); }
+TEST(FloorVisibility, NadirSeen) { Check({4.0, 80, 0.10, 0.15, 4.0}, true); }
+
+}  // namespace
+}  // namespace rs
