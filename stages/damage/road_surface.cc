@@ -5,6 +5,8 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <cstdio>
+#include <cstdlib>
 #include <array>
 #include <cmath>
 #include <limits>
@@ -203,6 +205,17 @@ RoadSurface FitRoadSurface(const cv::Mat& disparity_px, const StereoGeometry& g,
         w[i] = std::abs(x) < 1 ? (1 - x * x) * (1 - x * x) : 0.0;
       }
     }
+  }
+  if (std::getenv("ROADKERB_DBG")) {  // TEMP diagnosis
+    std::vector<double> bins[20]; int nob[20] = {0}, nw[20] = {0};
+    for (size_t i = 0; i < pts.size(); ++i) {
+      const int u = static_cast<int>(g.f_px * pts[i].x() / pts[i].z() + g.cx_px), v = static_cast<int>(g.f_px * pts[i].y() / pts[i].z() + g.cy_px);
+      if (v < 360) continue;
+      const int b = std::clamp(u / 64, 0, 19);
+      nob[b] += obstacle[i]; nw[b] += w[i] > 0;
+      if (!obstacle[i]) bins[b].push_back(res[i] * 1000);
+    }
+    for (int b = 0; b < 20; ++b) fprintf(stderr, "u%4d res %7.1f mm ob %3d w>0 %3d n %3zu\n", b * 64, Median(bins[b]), nob[b], nw[b], bins[b].size());
   }
   s.residual_sigma_m = sigma;
   s.inliers = static_cast<int>(std::count_if(w.begin(), w.end(), [](double x) { return x > 0; }));

@@ -2,9 +2,9 @@
 
 #include "formats/geojson/geojson.h"
 #include "formats/input_error.h"
-#include "formats/stereo/calibration_yaml.h"
-#include "formats/trajectory/tum_trajectory.h"
 #include "stages/damage/measure.h"
+#include "stages/damage/sim_truth.h"
+#include "survey/atomic_file.h"
 #include "stages/simulate/road_scene.h"
 #include "stages/simulate/simulation_options.h"
 
@@ -16,7 +16,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <fstream>
 #include <map>
 #include <set>
 #include <stdexcept>
@@ -30,16 +29,6 @@ struct TruthCrack {
   double width_m = 0, length_m = 0;
   std::vector<Eigen::Vector3d> centreline_world;  // linear cracks only
 };
-
-nlohmann::json ReadJsonFile(const fs::path& path) {
-  std::ifstream in(path);
-  if (!in) throw InputError(InputLocation::File(path.string()), "cannot open");
-  try {
-    return nlohmann::json::parse(in);
-  } catch (const nlohmann::json::parse_error& e) {
-    throw InputError(InputLocation::Byte(path.string(), e.byte), e.what());
-  }
-}
 
 // Truth cracks by id, centrelines in the simulation's world frame (local ENU; the height of
 // the intact road, which the GeoJSON leaves out).
@@ -84,14 +73,6 @@ std::map<int, TruthCrack> ReadTruthCracks(const fs::path& dir, const sim::RoadGe
     out[p["id"].get<int>()] = std::move(c);
   }
   return out;
-}
-
-cv::Mat ReadPng(const fs::path& path, int type) {
-  const cv::Mat m = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
-  if (m.empty() || m.type() != type)
-    throw InputError(InputLocation::File(path.string()), type == CV_16UC1 ? "expected a 16-bit grey PNG"
-                                                                          : "expected an 8-bit grey image");
-  return m;
 }
 
 double Median(std::vector<double> v) {
@@ -171,28 +152,10 @@ SimCrackEvaluation EvaluateSimulatedCracks(const fs::path& dir, const SimCrackEv
         "EvaluateSimulatedCracks: frame_step >= 1, max_frames >= 0, tolerance_px >= 0, min_visible_length_m >= 0, "
         "0 < min_coverage <= 1, 0 < min_detection_share <= 1");
   if (!o.use_truth_disparity) o.disparity.Check();
-  const StereoCalibration calib = ReadCalibrationYaml(dir / "calibration.yaml");
-  const StereoGeometry g{calib.left.fx, calib.left.cx, calib.left.cy, calib.BaselineM()};
-  const Trajectory traj = ReadTumTrajectory(dir / "truth/trajectory.tum");
-  const fs::path scene_path = dir / "truth/scene.json";
-  const nlohmann::json scene = ReadJsonFile(scene_path);
-  SimulationOptions sim_options;
-  try {
-    const auto& table = SimulationOptions::Table();
-    sim_options = table.FromJson(table.Merge(scene.at("options"), "simulate"));
-  } catch (const std::exception& e) {
-    throw InputError(InputLocation::File(scene_path.string()), e.what());
-  }
-  const sim::RoadGeometry road(sim_options);
+  const SimSurveyTruth survey = ReadSimSurveyTruth(dir);
+  const StereoGeometry& g = survey.geometry;
+  const sim::RoadGeometry road(survey.options);
   const std::map<int, TruthCrack> truth = ReadTruthCracks(dir, road);
-
-  std::vector<std::string> names;
-  for (const auto& e : fs::directory_iterator(dir / "left"))
-    if (e.path().extension() == ".png") names.push_back(e.path().stem().string());
-  std::sort(names.begin(), names.end());
-  if (names.size() != traj.poses.size())
-    throw InputError(InputLocation::File((dir / "truth/trajectory.tum").string()),
-                     fmt::format("{} poses for {} frames", traj.poses.size(), names.size()));
 
   SimCrackEvaluation r;
   r.min_width_px = o.min_width_px;
@@ -200,16 +163,13 @@ SimCrackEvaluation EvaluateSimulatedCracks(const fs::path& dir, const SimCrackEv
   std::vector<double> ms_cracks, length_pct, width_mm;
   double false_area = 0, false_length = 0;
   const cv::Mat band = cv::getStructuringElement(cv::MORPH_ELLIPSE, {2 * o.tolerance_px + 1, 2 * o.tolerance_px + 1});
-  for (size_t k = 0; k < names.size(); k += o.frame_step) {
+  for (size_t k = 0; k < survey.frames.size(); k += o.frame_step) {
     if (o.max_frames > 0 && r.frames >= o.max_frames) break;
-    const std::string& name = names[k];
-    const cv::Mat left = ReadPng(dir / "left" / (name + ".png"), CV_8UC1);
-    const cv::Mat masks = ReadPng(dir / "truth/masks" / (name + ".png"), CV_16UC1);
-    cv::Mat truth_disp;
-    ReadPng(dir / "truth/disparity" / (name + ".png"), CV_16UC1).convertTo(truth_disp, CV_32F, 1.0 / 256.0);
+    const std::string& name = survey.frames[k];
+    const SimFrameTruth frame = ReadSimFrame(survey, k);
+    const cv::Mat &left = frame.left, &masks = frame.masks, &truth_disp = frame.truth_disparity_px;
     cv::Mat disparity = truth_disp;
-    if (!o.use_truth_disparity)
-      disparity = ComputeDisparity(left, ReadPng(dir / "right" / (name + ".png"), CV_8UC1), o.disparity).disparity;
+    if (!o.use_truth_disparity) disparity = ComputeDisparity(left, ReadSimRightImage(survey, k), o.disparity).disparity;
     const FrameDamage fd = DetectDamage(disparity, left, g, o.damage);
     ms_cracks.push_back(fd.ms_cracks);
     ++r.frames;
@@ -218,7 +178,7 @@ SimCrackEvaluation EvaluateSimulatedCracks(const fs::path& dir, const SimCrackEv
 
     // Truth: linear cracks drawn from their centrelines (scored), alligator areas from the masks
     // (tolerated: detections there are not false, but they are not scored).
-    const Eigen::Isometry3d& T = traj.poses[k].T_world_frame;
+    const Eigen::Isometry3d& T = survey.trajectory.poses[k].T_world_frame;
     cv::Mat linear_t = cv::Mat::zeros(masks.size(), CV_16U), body_t = cv::Mat::zeros(masks.size(), CV_16U);
     std::map<int, Visible> seen;
     for (const auto& [id, c] : truth)

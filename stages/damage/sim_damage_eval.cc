@@ -2,10 +2,9 @@
 
 #include "formats/geojson/geojson.h"
 #include "formats/input_error.h"
-#include "formats/stereo/calibration_yaml.h"
-#include "formats/trajectory/tum_trajectory.h"
 #include "stages/damage/damage_output.h"
 #include "stages/damage/measure.h"
+#include "stages/damage/sim_truth.h"
 #include "stages/simulate/road_scene.h"
 #include "stages/simulate/simulation_options.h"
 
@@ -18,7 +17,6 @@
 #include <chrono>
 #include <cmath>
 #include <ctime>
-#include <fstream>
 #include <iostream>
 #include <map>
 #include <set>
@@ -60,28 +58,6 @@ std::map<int, TruthDamage> ReadTruthDamages(const fs::path& path) {
   return out;
 }
 
-nlohmann::json ReadJson(const fs::path& path) {
-  std::ifstream in(path);
-  if (!in) throw InputError(InputLocation::File(path.string()), "cannot open");
-  try {
-    return nlohmann::json::parse(in);
-  } catch (const nlohmann::json::parse_error& e) {
-    throw InputError(InputLocation::Byte(path.string(), e.byte), e.what());
-  }
-}
-
-// The simulation's options (scene.json "options"): the intact road's geometry.
-SimulationOptions ReadSceneOptions(const fs::path& path, const nlohmann::json& j) {
-  if (!j.contains("options") || !j["options"].is_object())
-    throw InputError(InputLocation::File(path.string()), "no simulation options");
-  try {
-    const auto& table = SimulationOptions::Table();
-    return table.FromJson(table.Merge(j["options"], "simulate"));
-  } catch (const std::exception& e) {
-    throw InputError(InputLocation::File(path.string()), e.what());
-  }
-}
-
 std::vector<TruthObstacle> ReadObstacles(const fs::path& path, const nlohmann::json& j) {
   std::vector<TruthObstacle> out;
   if (!j.contains("obstacles")) return out;
@@ -95,14 +71,6 @@ std::vector<TruthObstacle> ReadObstacles(const fs::path& path, const nlohmann::j
     out.push_back(t);
   }
   return out;
-}
-
-cv::Mat ReadPng(const fs::path& path, int type) {
-  const cv::Mat m = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
-  if (m.empty() || m.type() != type)
-    throw InputError(InputLocation::File(path.string()), type == CV_16UC1 ? "expected a 16-bit grey PNG"
-                                                                          : "expected an 8-bit grey image");
-  return m;
 }
 
 // World point of pixel (u, v) with disparity d (px) seen from pose T_world_cam.
@@ -176,21 +144,11 @@ SimDamageEvaluation EvaluateSimulatedDamage(const fs::path& dir, const SimDamage
   if (o.frame_step < 1 || o.max_frames < 0 || !(o.min_iou > 0 && o.min_iou <= 1))
     throw std::invalid_argument("EvaluateSimulatedDamage: frame_step >= 1, max_frames >= 0, 0 < min_iou <= 1");
   if (!o.use_truth_disparity) o.disparity.Check();
-  const StereoCalibration calib = ReadCalibrationYaml(dir / "calibration.yaml");
-  const StereoGeometry g{calib.left.fx, calib.left.cx, calib.left.cy, calib.BaselineM()};
+  const SimSurveyTruth survey = ReadSimSurveyTruth(dir);
+  const StereoGeometry& g = survey.geometry;
   const std::map<int, TruthDamage> truth = ReadTruthDamages(dir / "truth/damages.geojson");
-  const Trajectory traj = ReadTumTrajectory(dir / "truth/trajectory.tum");
-  const nlohmann::json scene = ReadJson(dir / "truth/scene.json");
-  const std::vector<TruthObstacle> obstacles = ReadObstacles(dir / "truth/scene.json", scene);
-  const sim::RoadGeometry road(ReadSceneOptions(dir / "truth/scene.json", scene));
-
-  std::vector<std::string> names;
-  for (const auto& e : fs::directory_iterator(dir / "left"))
-    if (e.path().extension() == ".png") names.push_back(e.path().stem().string());
-  std::sort(names.begin(), names.end());
-  if (names.size() != traj.poses.size())
-    throw InputError(InputLocation::File((dir / "truth/trajectory.tum").string()),
-                     fmt::format("{} poses for {} frames", traj.poses.size(), names.size()));
+  const std::vector<TruthObstacle> obstacles = ReadObstacles(dir / "truth/scene.json", survey.scene);
+  const sim::RoadGeometry road(survey.options);
 
   SimDamageEvaluation r;
   std::vector<double> steps[4];
@@ -199,16 +157,14 @@ SimDamageEvaluation EvaluateSimulatedDamage(const fs::path& dir, const SimDamage
   int within = 0, severity_ok = 0;
   double sigma_sum = 0, valid_sum = 0;
   std::set<int> unique;
-  for (size_t k = 0; k < names.size(); k += o.frame_step) {
+  for (size_t k = 0; k < survey.frames.size(); k += o.frame_step) {
     if (o.max_frames > 0 && r.frames >= o.max_frames) break;
-    const std::string& name = names[k];
-    const cv::Mat left = ReadPng(dir / "left" / (name + ".png"), CV_8UC1);
-    const cv::Mat masks = ReadPng(dir / "truth/masks" / (name + ".png"), CV_16UC1);
-    cv::Mat truth_disp;
-    ReadPng(dir / "truth/disparity" / (name + ".png"), CV_16UC1).convertTo(truth_disp, CV_32F, 1.0 / 256.0);
+    const std::string& name = survey.frames[k];
+    const SimFrameTruth frame = ReadSimFrame(survey, k);
+    const cv::Mat &left = frame.left, &masks = frame.masks, &truth_disp = frame.truth_disparity_px;
     cv::Mat disparity = truth_disp;
     if (!o.use_truth_disparity) {
-      const cv::Mat right = ReadPng(dir / "right" / (name + ".png"), CV_8UC1);
+      const cv::Mat right = ReadSimRightImage(survey, k);
       const auto t0 = std::chrono::steady_clock::now();
       DisparityResult dr = ComputeDisparity(left, right, o.disparity);
       ms_disp.push_back(MsSince(t0));
@@ -228,7 +184,7 @@ SimDamageEvaluation EvaluateSimulatedDamage(const fs::path& dir, const SimDamage
     steps[3].push_back(fd.ms_cracks);
     ++r.frames;
 
-    const Eigen::Isometry3d& T = traj.poses[k].T_world_frame;
+    const Eigen::Isometry3d& T = survey.trajectory.poses[k].T_world_frame;
     const cv::Mat obstacle = ObstacleMask(truth_disp, g, T, obstacles, o.obstacle_margin_m);
 
     // Overlaps, areas, border contact, obstacle share: one pass over the frame.
