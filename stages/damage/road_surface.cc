@@ -5,11 +5,10 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
-#include <cstdio>
-#include <cstdlib>
 #include <array>
 #include <cmath>
 #include <limits>
+#include <numeric>
 #include <random>
 #include <stdexcept>
 #include <vector>
@@ -22,6 +21,7 @@ namespace rs {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kTukeyC = 4.685;  // 95 % efficiency at the Gaussian
 
 bool ValidDisparity(float d) { return std::isfinite(d) && d > 0; }
@@ -100,10 +100,19 @@ RoadSurface FitRoadSurface(const cv::Mat& disparity_px, const StereoGeometry& g,
   o.Check();
 
   std::vector<Eigen::Vector3d> pts;
+  // The sample's cell on the fit grid (pixel / stride), row-major; int, not cv::Point: half the
+  // memory, below malloc's mmap threshold (a 200 kB block cost 3-10 ms a frame in page faults
+  // of the later images).
+  const int gw = (disparity_px.cols + o.fit_stride_px - 1) / o.fit_stride_px;
+  const int gh = (disparity_px.rows + o.fit_stride_px - 1) / o.fit_stride_px;
+  std::vector<int> cell;
   for (int v = 0; v < disparity_px.rows; v += o.fit_stride_px) {
     const float* row = disparity_px.ptr<float>(v);
     for (int u = 0; u < disparity_px.cols; u += o.fit_stride_px)
-      if (ValidDisparity(row[u])) pts.push_back(Backproject(g, u, v, row[u]));
+      if (ValidDisparity(row[u])) {
+        pts.push_back(Backproject(g, u, v, row[u]));
+        cell.push_back(v / o.fit_stride_px * gw + u / o.fit_stride_px);
+      }
   }
   if (pts.size() < 50) throw std::invalid_argument("road surface: fewer than 50 valid disparities to fit");
 
@@ -170,52 +179,91 @@ RoadSurface FitRoadSurface(const cv::Mat& disparity_px, const StereoGeometry& g,
   std::vector<char> obstacle(pts.size(), 0);
   std::vector<double> w(pts.size(), 1.0), res(pts.size());
   double sigma = o.min_noise_m;
-  for (int round = 0; round < 2; ++round) {
-    for (size_t i = 0; i < pts.size(); ++i) {
-      res[i] = h[i] - s.coeffs.dot(Monomials(st_s[i], st_t[i]));
-      obstacle[i] = res[i] > o.obstacle_height_m;
-      // Start each round from the band inliers: damage and obstacles start with zero weight. The
-      // first round starts wider, so both lanes of a crowned (roof-shaped) road take part even
-      // when RANSAC's plane followed one of them.
-      w[i] = !obstacle[i] && std::abs(res[i]) < (round == 0 ? 2.0 : 1.0) * o.ransac_inlier_m ? 1.0 : 0.0;
-    }
-    for (int it = 0; it < o.irls_iterations; ++it) {
-      Eigen::Matrix<double, 6, 6> AtA = Eigen::Matrix<double, 6, 6>::Zero();
-      Eigen::Matrix<double, 6, 1> Atb = Eigen::Matrix<double, 6, 1>::Zero();
-      for (size_t i = 0; i < pts.size(); ++i) {
-        if (w[i] <= 0) continue;
-        const auto m = Monomials(st_s[i], st_t[i]);
-        AtA.selfadjointView<Eigen::Lower>().rankUpdate(m, w[i]);
-        Atb += w[i] * h[i] * m;
-      }
-      AtA = AtA.selfadjointView<Eigen::Lower>();
-      s.coeffs = AtA.ldlt().solve(Atb);
-      std::vector<double> absr;
-      absr.reserve(pts.size());
+  // `offroad` samples take no part in the fit (they are not flagged obstacles).
+  auto fit = [&](const std::vector<char>& offroad, bool whole_region) {
+    s.coeffs.setZero();
+    for (int round = 0; round < 2; ++round) {
       for (size_t i = 0; i < pts.size(); ++i) {
         res[i] = h[i] - s.coeffs.dot(Monomials(st_s[i], st_t[i]));
-        if (!obstacle[i] && w[i] > 0) absr.push_back(std::abs(res[i]));
+        obstacle[i] = res[i] > o.obstacle_height_m;
+        // Start each round from the band inliers: damage and obstacles start with zero weight. The
+        // first round starts wider, so both lanes of a crowned (roof-shaped) road take part even
+        // when RANSAC's plane followed one of them.
+        const double band = round == 0 ? (whole_region ? kInf : 2.0 * o.ransac_inlier_m) : o.ransac_inlier_m;
+        w[i] = !obstacle[i] && !offroad[i] && std::abs(res[i]) < band ? 1.0 : 0.0;
       }
-      // First round: scale floored at the plane band (a wide Tukey window, graduated
-      // non-convexity); the second round shrinks to the data's own spread.
-      sigma = std::max(round == 0 ? o.ransac_inlier_m : o.min_noise_m, 1.4826 * Median(absr));
-      for (size_t i = 0; i < pts.size(); ++i) {
-        if (obstacle[i]) { w[i] = 0; continue; }
-        const double x = res[i] / (kTukeyC * sigma);
-        w[i] = std::abs(x) < 1 ? (1 - x * x) * (1 - x * x) : 0.0;
+      for (int it = 0; it < o.irls_iterations; ++it) {
+        Eigen::Matrix<double, 6, 6> AtA = Eigen::Matrix<double, 6, 6>::Zero();
+        Eigen::Matrix<double, 6, 1> Atb = Eigen::Matrix<double, 6, 1>::Zero();
+        for (size_t i = 0; i < pts.size(); ++i) {
+          if (w[i] <= 0) continue;
+          const auto m = Monomials(st_s[i], st_t[i]);
+          AtA.selfadjointView<Eigen::Lower>().rankUpdate(m, w[i]);
+          Atb += w[i] * h[i] * m;
+        }
+        AtA = AtA.selfadjointView<Eigen::Lower>();
+        s.coeffs = AtA.ldlt().solve(Atb);
+        std::vector<double> absr;
+        absr.reserve(pts.size());
+        for (size_t i = 0; i < pts.size(); ++i) {
+          res[i] = h[i] - s.coeffs.dot(Monomials(st_s[i], st_t[i]));
+          if (!obstacle[i] && w[i] > 0) absr.push_back(std::abs(res[i]));
+        }
+        // First round: scale floored at the plane band (a wide Tukey window, graduated
+        // non-convexity); the second round shrinks to the data's own spread.
+        sigma = std::max(round == 0 ? o.ransac_inlier_m : o.min_noise_m, 1.4826 * Median(absr));
+        for (size_t i = 0; i < pts.size(); ++i) {
+          if (obstacle[i] || offroad[i]) { w[i] = 0; continue; }
+          const double x = res[i] / (kTukeyC * sigma);
+          w[i] = std::abs(x) < 1 ? (1 - x * x) * (1 - x * x) : 0.0;
+        }
       }
     }
-  }
-  if (std::getenv("ROADKERB_DBG")) {  // TEMP diagnosis
-    std::vector<double> bins[20]; int nob[20] = {0}, nw[20] = {0};
+  };
+  std::vector<char> offroad(pts.size(), 0);
+  fit(offroad, false);
+  // 3. Road regions cut off from the main one by obstacles: beside a car parked at the kerb, the
+  //    raised pavement beyond it is such a region, and the road between it and the car is hidden,
+  //    so the quadratic bent up to the pavement and lay 40-110 mm above the kerb-side lane. Fit the
+  //    largest region alone, then let the others back only where they agree with it.
+  // Grid of residuals about the first fit; a jump of more than the obstacle height between
+  // neighbouring samples (a kerb face) separates regions like an obstacle does.
+  cv::Mat road_cells(gh, gw, CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+  for (size_t i = 0; i < pts.size(); ++i)
+    if (!obstacle[i]) road_cells.at<float>(cell[i] / gw, cell[i] % gw) = static_cast<float>(res[i]);
+  int n_labels = 0;
+  const cv::Mat labels = LabelSmoothRegions(road_cells, static_cast<float>(o.obstacle_height_m), &n_labels);
+  const int n_regions = n_labels + 1;  // with the empty label 0
+  std::vector<int> area(n_regions, 0);
+  std::vector<double> weight(n_regions, 0.0);
+  for (size_t i = 0; i < pts.size(); ++i)
+    if (!obstacle[i]) ++area[labels.at<int>(cell[i] / gw, cell[i] % gw)], weight[labels.at<int>(cell[i] / gw, cell[i] % gw)] += w[i];
+  int main_region = 1;
+  for (int k = 2; k < n_regions; ++k)
+    if (area[k] > area[main_region]) main_region = k;
+  // Only regions that took part in the fit can have bent it (a pothole's floor, cut off by its
+  // walls, had no weight): otherwise the fit stands, and no time is spent.
+  const double total_weight = std::accumulate(weight.begin(), weight.end(), 0.0);
+  if (n_regions > 2 && total_weight - weight[main_region] > 0.01 * total_weight) {
+    std::vector<int> region(pts.size(), 0);
     for (size_t i = 0; i < pts.size(); ++i) {
-      const int u = static_cast<int>(g.f_px * pts[i].x() / pts[i].z() + g.cx_px), v = static_cast<int>(g.f_px * pts[i].y() / pts[i].z() + g.cy_px);
-      if (v < 360) continue;
-      const int b = std::clamp(u / 64, 0, 19);
-      nob[b] += obstacle[i]; nw[b] += w[i] > 0;
-      if (!obstacle[i]) bins[b].push_back(res[i] * 1000);
+      region[i] = obstacle[i] ? 0 : labels.at<int>(cell[i] / gw, cell[i] % gw);
+      offroad[i] = region[i] != 0 && region[i] != main_region;
     }
-    for (int b = 0; b < 20; ++b) fprintf(stderr, "u%4d res %7.1f mm ob %3d w>0 %3d n %3zu\n", b * 64, Median(bins[b]), nob[b], nw[b], bins[b].size());
+    fit(offroad, true);
+    // A region rejoins when its median height about the main region's surface is within the
+    // plane band (it is the same road seen past an obstacle).
+    std::vector<std::vector<double>> r_of(n_regions);
+    for (size_t i = 0; i < pts.size(); ++i)
+      if (offroad[i]) r_of[region[i]].push_back(h[i] - s.coeffs.dot(Monomials(st_s[i], st_t[i])));
+    bool rejoined = false;
+    for (int k = 1; k < n_regions; ++k)
+      if (!r_of[k].empty() && std::abs(Median(r_of[k])) < o.ransac_inlier_m) {
+        rejoined = true;
+        for (size_t i = 0; i < pts.size(); ++i)
+          if (region[i] == k) offroad[i] = 0;
+      }
+    if (rejoined) fit(offroad, true);
   }
   s.residual_sigma_m = sigma;
   s.inliers = static_cast<int>(std::count_if(w.begin(), w.end(), [](double x) { return x > 0; }));

@@ -1,8 +1,10 @@
 #pragma once
 // Road surface model in 3D for one frame: the dominant plane (RANSAC) after
 // which points far above it (vehicles, people, kerbs) are removed as obstacles,
-// then a Tukey-robust quadratic height field over that plane. Damage lies
-// below the surface and is rejected by the robust weights, not fitted.
+// then a Tukey-robust quadratic height field over that plane, refitted on the
+// largest smooth region when a surface cut off by a step or an obstacle (the
+// pavement beyond a parked car) took part. Damage lies below the surface and is
+// rejected by the robust weights, not fitted.
 
 #include "stages/damage/damage_options.h"
 #include "stages/damage/damage_types.h"

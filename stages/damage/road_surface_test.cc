@@ -77,6 +77,41 @@ TEST(RoadSurface, RefineEqualsRecompute) {
   EXPECT_LE(max_diff(refined.correction_mm, full.correction_mm), 1e-6);
 }
 
+// Nadir view of a crowned road (2.5 % crossfall each side of the crown) with a 120 mm kerb and the
+// pavement beyond it, and a parked car hiding the kerb-side lane: the pavement, seen only past
+// the car, must not pull the fitted surface up over the hidden lane (it did: 40-110 mm "below the
+// road" beside the car in the simulator's obstacles preset). Intact road within 5 mm everywhere.
+TEST(RoadSurface, PavementBeyondParkedCarIsNotRoad) {
+  const StereoGeometry g{500, 400, 180, 0.2};
+  constexpr double kH = 4.0, kCrownX = 1.0, kKerbX = -2.5;
+  const auto road_height = [&](double x) { return -0.025 * std::abs(std::min(x, kCrownX) - kCrownX); };
+  const auto height = [&](double x) {
+    if (x >= -2.4 && x <= -0.6) return 1.5;  // car roof
+    return x < kKerbX ? road_height(kKerbX) + 0.12 : road_height(x);
+  };
+  cv::Mat d(360, 640, CV_32F);
+  for (int v = 0; v < d.rows; ++v)
+    for (int u = 0; u < d.cols; ++u) {
+      // Nadir camera: depth Z = H − height(X), X = (u − cx)·Z/f; fixed-point iterations.
+      double z = kH;
+      for (int it = 0; it < 20; ++it) z = kH - height((u - g.cx_px) * z / g.f_px);
+      d.at<float>(v, u) = static_cast<float>(g.f_px * g.baseline_m / z);
+    }
+  const RoadModelOptions o;
+  const RoadSurface s = FitRoadSurface(d, g, o);
+  const RoadRelief r = ComputeRoadRelief(d, g, s, o);
+  double worst = 0;
+  for (int v = 0; v < d.rows; v += 4)
+    for (int u = 0; u < d.cols; u += 4) {
+      const double z = g.f_px * g.baseline_m / d.at<float>(v, u), x = (u - g.cx_px) * z / g.f_px;
+      if (x < -0.6 + 0.05 || x < kKerbX) continue;  // road right of the car only
+      worst = std::max(worst, std::abs(double(r.depth_below_mm.at<float>(v, u))));
+    }
+  EXPECT_LT(worst, 5.0);
+  // The pavement is not road: above the fitted surface by about the kerb (obstacle height or more).
+  EXPECT_LT(r.depth_below_mm.at<float>(180, 20), -60.0);
+}
+
 TEST(RoadSurface, TooFewPoints) {
   SyntheticRoadScene scene;
   EXPECT_THROW(FitRoadSurface(cv::Mat::zeros(100, 100, CV_32F), scene.geometry, RoadModelOptions()),
