@@ -2,6 +2,7 @@
 // algorithms, measured in this process, printed as tables.
 #include <fmt/format.h>
 
+#include <cstdlib>
 #include <memory>
 #include <thread>
 
@@ -155,7 +156,11 @@ Command BenchCommand() {
                 return kExitOk;
               }
               const cv::Size size = ParseImageSize(g->size, "--size");
+              // CPU figures inflate and wall figures wait on a loaded machine: say how loaded.
+              double load_before[1] = {-1}, load_after[1] = {-1};
+              getloadavg(load_before, 1);
               const DamageBench b = BenchDetectDamage(size.width, size.height, g->frames);
+              getloadavg(load_after, 1);
               fmt::print("| size | frames | wall ms/frame (median) | CPU ms/frame (median, all threads) | frames/s (wall) |\n"
                          "|---|---|---|---|---|\n");
               fmt::print("| {}x{} | {} | {:.1f} | {:.1f} | {:.1f} |\n", size.width, size.height, g->frames, b.wall_ms,
@@ -164,6 +169,8 @@ Command BenchCommand() {
                          "PNG encoding {:.1f} (not included)\nframe: {} potholes, {} cracks, {} other\n",
                          b.road_ms, b.segment_ms, b.measure_ms, b.cracks_ms, b.outputs_ms, b.encode_ms, b.potholes,
                          b.cracks, b.others);
+              fmt::print("load average (1 min) {:.1f} before, {:.1f} after; {} hardware threads\n", load_before[0],
+                         load_after[0], std::thread::hardware_concurrency());
               return kExitOk;
             };
           }};

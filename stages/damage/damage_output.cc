@@ -7,6 +7,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <stdexcept>
@@ -49,8 +50,11 @@ cv::Mat RenderOverlay(const cv::Mat& left, const cv::Mat& labels, const std::vec
     std::string text = fmt::format("{} {}", d.id, DamageTypeName(d.type));
     if (d.type == DamageType::kCrack && std::isfinite(d.mean_width_m))
       text += fmt::format(" w{:.0f}mm {}", d.mean_width_m * 1000, SeverityLevelName(d.fhwa.level));
-    else if (std::isfinite(d.max_depth_m))  // ">=": the near rim may hide deeper floor (a lower bound)
-      text += fmt::format(" {}{:.0f}mm {}", d.floor_visible ? "" : ">=", d.max_depth_m * 1000,
+    else if (std::isfinite(d.max_depth_m) && (d.floor_visible || !std::isfinite(d.max_depth_bound_m)))
+      text += fmt::format(" {:.0f}mm {}", d.max_depth_m * 1000, SeverityLevelName(d.astm.level));
+    else if (std::isfinite(d.max_depth_m))  // the near rim hides the floor: the estimate "~" and its interval
+      text += fmt::format(" ~{:.0f}mm [{:.0f}-{:.0f}] {}", d.max_depth_m * 1000,
+                          std::max(0.0, d.max_depth_seen_m - 2 * d.sigma_depth_m) * 1000, d.max_depth_bound_m * 1000,
                           SeverityLevelName(d.astm.level));
     if (d.outline_px.empty()) continue;
     const cv::Rect box = cv::boundingRect(d.outline_px);
@@ -72,8 +76,10 @@ nlohmann::json DetectionsToJson(const std::vector<DamageInstance>& instances) {
                     {"pixel_count", d.pixel_count},
                     {"area_m2", Num(d.area_m2)},
                     {"max_depth_m", Num(d.max_depth_m)},
+                    {"max_depth_seen_m", Num(d.max_depth_seen_m)},
                     {"mean_depth_m", Num(d.mean_depth_m)},
                     {"volume_m3", Num(d.volume_m3)},
+                    {"volume_seen_m3", Num(d.volume_seen_m3)},
                     {"equivalent_diameter_m", Num(d.equivalent_diameter_m)},
                     {"max_diameter_m", Num(d.max_diameter_m)},
                     {"length_m", Num(d.length_m)},

@@ -174,7 +174,8 @@ FrameDamage DetectDamage(const cv::Mat& input_disparity_px, const cv::Mat& left_
     RefineRoadRelief(f.relief, evaluated, disparity_px, g, f.surface, o.road, exclude);
   }
   ExtendToRim(f.labels, f.relief, o.segment.rim_depth_m, o.segment.rim_depth_fraction,
-              o.segment.rim_ring_mean ? o.road.relief_smooth_px : 0);
+              o.segment.rim_ring_mean ? o.road.relief_smooth_px : 0, relief.row_elongation,
+              evaluated.depth_below_mm);
   f.ms_segment = MsSince(t0);
 
   t0 = std::chrono::steady_clock::now();

@@ -22,6 +22,7 @@ struct RayPoint {
 struct Strip {
   double x_rim = 1e300, tan_rim = 0;
   double shadow_edge_depth_m = 0;  ///< deepest seen depth of the rays grazing the rim (on the shadow line)
+  std::vector<std::pair<double, double>> seen;  ///< (along-view position, depth) of the seen points
 };
 
 // Volume per metre of width the shadow of one strip can hide beyond what the measurement
@@ -39,6 +40,56 @@ double HiddenExtraArea(double length_m, double seen_m, double slope, double cap_
     area += std::min({slope * x, seen_m + slope * (length_m - x), cap_m});
   }
   return std::max(0.0, area * length_m / kSteps - seen_m * length_m / 2);
+}
+
+// The seen profile's depth at along-view position x: linear between the seen points around x
+// (sorted by position); 0 beyond the last one.
+double SeenDepthAt(const std::vector<std::pair<double, double>>& seen, double x) {
+  const auto it = std::lower_bound(seen.begin(), seen.end(), std::make_pair(x, -1e300));
+  if (it == seen.end()) return 0;
+  if (it == seen.begin()) return it->second;
+  const auto& [x1, d1] = *it;
+  const auto& [x0, d0] = *(it - 1);
+  return x1 - x0 > 1e-12 ? d0 + (d1 - d0) * (x - x0) / (x1 - x0) : d1;
+}
+
+// The hidden stretch of one strip completed: the area under the estimated profile over [0, L]
+// behind the rim, and its deepest point. Assumption (docs/stages/damage.md "Hidden floors"): a
+// pothole is a bowl, symmetric along the strip about the opening's centre c (its ends x_near,
+// x_far: where the surface is seen 5 % of the max depth deep), so the hidden point at x is as
+// deep as the seen point at 2c − x on the far wall. Where that mirror point is hidden too (the
+// shadow reaches past the centre: the floor is hidden) the bowl is the circle through the two
+// rims and the grazing point (where the grazing rays meet the far wall, depth d): the one
+// bowl these three seen points fix, exact for a spherical cap. Every estimate is kept deeper
+// than the shadow line (a hidden point lies below the grazing ray) and no deeper than `hi(s)`,
+// the bound at distance s behind the rim.
+struct Completion {
+  double area_m2 = 0;  ///< ∫ depth over the hidden stretch (per metre of width)
+  double max_depth_m = 0;
+};
+template <class UpperFn>
+Completion CompleteHidden(const std::vector<std::pair<double, double>>& seen, double x_rim, double tan_e,
+                          double seen_depth_m, double x_near, double x_far, UpperFn hi) {
+  constexpr int kSteps = 64;
+  Completion c;
+  const double length = seen_depth_m / tan_e, x_grazing = x_rim + length, centre = (x_near + x_far) / 2;
+  const double half = (x_far - x_near) / 2, t_grazing = x_grazing - centre;
+  // The circle through (±half, 0) and (t_grazing, d): centre `k` above the road, radius² = half² + k².
+  const double k = (half * half - t_grazing * t_grazing - seen_depth_m * seen_depth_m) / (2 * seen_depth_m);
+  for (int i = 0; i < kSteps; ++i) {
+    const double s = (i + 0.5) * length / kSteps, x = x_rim + s, mirror = 2 * centre - x;
+    double d;
+    if (mirror >= x_grazing) {
+      d = SeenDepthAt(seen, mirror);
+    } else {  // x and its mirror both hidden: |x − c| < t_grazing
+      const double t = x - centre;
+      d = std::sqrt(std::max(0.0, half * half + k * k - t * t)) - k;
+    }
+    d = std::min(std::max(d, s * tan_e), hi(s));
+    c.area_m2 += d * length / kSteps;
+    c.max_depth_m = std::max(c.max_depth_m, d);
+  }
+  return c;
 }
 
 }  // namespace
@@ -75,6 +126,7 @@ FloorVisibility AnalyseFloorVisibility(const cv::Mat& labels, int id, const cv::
   }
   if (pts.empty()) return out;
   out.analysed = true;
+  out.max_depth_estimate_m = max_depth_m, out.volume_estimate_m3 = volume_m3;  // until a shadow says more
   const double z_mean = z_sum / pts.size();
   // Height noise of a seen point: a range error ΔZ moves it along its ray by ΔZ·|n·ray|.
   const double sigma_height_m = sigma_depth_m * n_dot_ray_sum / pts.size();
@@ -142,16 +194,34 @@ FloorVisibility AnalyseFloorVisibility(const cv::Mat& labels, int id, const cv::
   // The stated interval of a seen max depth is ±2 σ_Z (σ_Z, not the smaller height noise: the
   // disparity's errors at a rim are not those of a flat road).
   const double cap = out.floor_visible ? max_depth_m + 2 * sigma_depth_m : 1e300;
-  double bound = 0, hidden_volume = 0, longest = 0;
-  for (const Strip& st : strips) {
+  // The seen profile of each strip, by where the rays meet the surface (x_hit).
+  const double rim_seen_m = 0.05 * max_depth_m;  // the openings' ends: the same depth on both sides
+  for (const RayPoint& p : pts)
+    if (std::isfinite(p.depth_m)) strip_of(p).seen.emplace_back(p.x + p.depth_m / p.tan_e, p.depth_m);
+  double bound = 0, hidden_volume = 0, longest = 0, completed_volume = 0;
+  std::vector<double> strip_max;  // completed max depth per strip with a shadow (in strip order)
+  for (Strip& st : strips) {
     const double d = st.shadow_edge_depth_m;
     if (!(d > 0) || !(st.tan_rim > 0)) continue;
     const double length = d / st.tan_rim;
     longest = std::max(longest, length);
     // The bound's own noise: d carries the height noise, scaled like the bound.
     const double gain = std::max(1.0, (slope / st.tan_rim + 1) / 2);
+    const double upper = std::min(cap, gain * (d + 2 * sigma_height_m));
     bound = std::max(bound, gain * (d + 2 * sigma_height_m));
-    hidden_volume += strip_m * HiddenExtraArea(length, d, slope, std::min(cap, gain * (d + 2 * sigma_height_m)));
+    hidden_volume += strip_m * HiddenExtraArea(length, d, slope, upper);
+
+    // The estimate: the opening's ends on the road where the seen surface is 5 % of the max
+    // depth deep (the near one no farther than the rim).
+    std::sort(st.seen.begin(), st.seen.end());
+    double x_near = st.x_rim, x_far = st.x_rim + length;
+    for (const auto& [x, depth] : st.seen)
+      if (depth >= rim_seen_m) x_near = std::min(x_near, x), x_far = std::max(x_far, x);
+    const auto hi = [&](double s_m) { return std::min({slope * s_m, d + slope * (length - s_m), upper}); };
+    const Completion c = CompleteHidden(st.seen, st.x_rim, st.tan_rim, d, x_near, x_far, hi);
+    // The measured volume already holds the shadow triangle d·L/2 (HiddenExtraArea).
+    completed_volume += strip_m * std::max(0.0, c.area_m2 - d * length / 2);
+    strip_max.push_back(c.max_depth_m);
   }
   out.hidden_length_m = longest;
   const double volume_noise = 2 * sigma_depth_m * area_m2;  // the lower bound's term, stated alike
@@ -159,7 +229,17 @@ FloorVisibility AnalyseFloorVisibility(const cv::Mat& labels, int id, const cv::
   // 15 % a volume is graded by); the stereo noise is stated apart (σ_Z).
   if (!out.floor_visible || hidden_volume > 0.05 * volume_m3)
     out.volume_upper_m3 = volume_m3 + hidden_volume + volume_noise;
-  if (!out.floor_visible) out.max_depth_bound_m = std::max(bound, max_depth_m + 2 * sigma_depth_m);
+  out.volume_estimate_m3 = volume_m3 + completed_volume;
+  if (!out.floor_visible) {
+    out.max_depth_bound_m = std::max(bound, max_depth_m + 2 * sigma_depth_m);
+    // The deepest completed strip, as the median of three neighbours (one strip's rims, a row
+    // off, are not the pothole's depth).
+    for (size_t i = 1; i + 1 < strip_max.size(); ++i) {
+      double m3[3] = {strip_max[i - 1], strip_max[i], strip_max[i + 1]};
+      std::sort(m3, m3 + 3);
+      out.max_depth_estimate_m = std::max(out.max_depth_estimate_m, m3[1]);
+    }
+  }
   return out;
 }
 
@@ -167,13 +247,16 @@ void AnalyseFloorVisibility(std::vector<DamageInstance>& instances, const cv::Ma
                             const StereoGeometry& g, const RoadSurface& s, const MeasureOptions& o) {
   const std::vector<cv::Rect> boxes = LabelBoxes(labels);
   for (DamageInstance& d : instances) {
-    if (d.type == DamageType::kCrack || !std::isfinite(d.max_depth_m) || d.id >= static_cast<int>(boxes.size()))
-      continue;
+    if (d.type == DamageType::kCrack) continue;
+    d.max_depth_seen_m = d.max_depth_m, d.volume_seen_m3 = d.volume_m3;
+    if (!std::isfinite(d.max_depth_m) || d.id >= static_cast<int>(boxes.size())) continue;
     const FloorVisibility f =
         AnalyseFloorVisibility(labels, d.id, boxes[d.id], r, g, s, o, d.max_depth_m, d.volume_m3, d.area_m2,
                                d.sigma_depth_m);
     if (!f.analysed) continue;
     d.floor_visible = f.floor_visible;
+    d.max_depth_m = f.max_depth_estimate_m;
+    d.volume_m3 = f.volume_estimate_m3;
     d.grazing_angle_deg = f.grazing_angle_deg;
     d.hidden_length_m = f.hidden_length_m;
     d.max_depth_bound_m = f.max_depth_bound_m;

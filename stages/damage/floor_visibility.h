@@ -4,8 +4,9 @@
 // pothole, so its measured depth and volume are only what this frame can see. Per
 // detection: the elevation e of the rays over the near rim, the shadow line x·tan e behind
 // it (the deepest point visible at along-view distance x), whether the deepest seen surface
-// stands clear of that line (floor seen) or lies on it (floor hidden), and then an upper
-// bound on the hidden depth and volume. Method and assumptions: docs/stages/damage.md
+// stands clear of that line (floor seen) or lies on it (floor hidden), an upper bound on the
+// hidden depth and volume, and an estimate of them (the hidden near wall completed from the
+// seen far wall). Method and assumptions: docs/stages/damage.md
 // ("Hidden floors").
 
 #include "stages/damage/damage_options.h"
@@ -29,6 +30,12 @@ struct FloorVisibility {
   /// Floor hidden, or the shadow may hide > 5 % of the volume (the near wall's wedge behind the
   /// rim): the volume with the shadow filled to the bound (a seen floor caps it), +2 σ; else NaN.
   double volume_upper_m3 = kUnknown;
+  /// Best estimates: the seen profile completed behind the near rim, per strip along the view,
+  /// by the mirror image of the seen far wall about the opening's centre (the floor, where the
+  /// mirror is hidden too, continued from the far wall's slope), kept between the shadow line
+  /// and the bound. Equal to the measured values where nothing is hidden.
+  double max_depth_estimate_m = kUnknown;
+  double volume_estimate_m3 = kUnknown;
 };
 
 /// Analyses instance `id` of `labels` (CV_16U) within `box` (its bounding box) on the road
@@ -42,7 +49,8 @@ FloorVisibility AnalyseFloorVisibility(const cv::Mat& labels, int id, const cv::
                                        double area_m2, double sigma_depth_m);
 
 /// Runs AnalyseFloorVisibility on every depression of `instances` (not cracks) with a finite
-/// max depth and stores the result in the instance's floor fields.
+/// max depth and stores the result in the instance's floor fields: max_depth_m and volume_m3
+/// become the estimates, the measured values move to max_depth_seen_m and volume_seen_m3.
 void AnalyseFloorVisibility(std::vector<DamageInstance>& instances, const cv::Mat& labels, const RoadRelief& relief,
                             const StereoGeometry& geometry, const RoadSurface& surface, const MeasureOptions& options);
 

@@ -81,32 +81,68 @@ DamageInstance Check(const Case& c, bool expect_visible) {
   if (c.pitch_deg < 30) {
     EXPECT_NEAR(d.grazing_angle_deg, std::atan(truth.tan_rim) * 180 / CV_PI, 1.5);
   }
-  // Lower bound: measured − 2 σ_Z never exceeds the truth.
-  EXPECT_LE(d.max_depth_m - 2 * d.sigma_depth_m, c.depth_m);
+  // Lower bound: seen − 2 σ_Z never exceeds the truth.
+  EXPECT_LE(d.max_depth_seen_m - 2 * d.sigma_depth_m, c.depth_m);
   if (expect_visible) {
     EXPECT_NEAR(d.max_depth_m, c.depth_m, 0.010);  // the Done-when bound where the floor is seen
+    EXPECT_EQ(d.max_depth_m, d.max_depth_seen_m);  // nothing to complete
     EXPECT_TRUE(std::isnan(d.max_depth_bound_m));
-    EXPECT_TRUE(std::isnan(d.volume_upper_m3));
   } else {
-    EXPECT_LT(d.max_depth_m, c.depth_m - 0.010);    // what the frame shows falls short
-    EXPECT_GE(d.max_depth_bound_m, c.depth_m);      // the bound holds the truth
-    EXPECT_LE(d.max_depth_bound_m, 4 * c.depth_m);  // and says something
+    EXPECT_LT(d.max_depth_seen_m, c.depth_m - 0.010);  // what the frame shows falls short
+    EXPECT_GE(d.max_depth_bound_m, c.depth_m);         // the bound holds the truth
+    EXPECT_LE(d.max_depth_bound_m, 4 * c.depth_m);     // and says something
     EXPECT_GE(d.volume_upper_m3, scene.TrueVolumeM3());
-    EXPECT_LT(d.volume_m3, scene.TrueVolumeM3());
+    EXPECT_LT(d.volume_seen_m3, scene.TrueVolumeM3());
     EXPECT_GT(d.hidden_length_m, 0.0);
     EXPECT_LT(d.hidden_length_m, 2 * c.radius_m);
+    // The estimate lies within the stated interval.
+    EXPECT_GE(d.max_depth_m, d.max_depth_seen_m);
+    EXPECT_LE(d.max_depth_m, d.max_depth_bound_m);
+  }
+  EXPECT_GE(d.volume_m3, d.volume_seen_m3);
+  if (std::isfinite(d.volume_upper_m3)) {
+    EXPECT_LE(d.volume_m3, d.volume_upper_m3);
   }
   // The detections JSON carries the verdict; unknown bounds are null, never 0.
   const nlohmann::json j = DetectionsToJson({d})["detections"][0];
   EXPECT_EQ(j["floor_visible"].get<bool>(), expect_visible);
   EXPECT_EQ(j["max_depth_bound_m"].is_null(), expect_visible);
-  EXPECT_EQ(j["volume_upper_m3"].is_null(), expect_visible);
+  EXPECT_EQ(j["volume_upper_m3"].is_null(), !std::isfinite(d.volume_upper_m3));
+  EXPECT_DOUBLE_EQ(j["max_depth_seen_m"].get<double>(), d.max_depth_seen_m);
+  EXPECT_DOUBLE_EQ(j["volume_seen_m3"].get<double>(), d.volume_seen_m3);
   return d;
 }
 
+// The estimate against the exact cap: volume within `volume_tol` (relative), max depth within
+// `depth_tol_m`, where what the frame sees (the old volume_m3 / max_depth_m) misses the same
+// tolerance (the test of the completion, not of the measurement). Measured (session 6): 80 mm
+// cap 81.9 mm, −6.7 % (seen 59 mm, −44 %); 120 mm cap 120.9 mm, −14.4 % (seen 77 mm, −54 %:
+// close to the 15 % bound; the area is −3 %); wedge case −3.7 % (seen −9.0 %, area −3.5 %).
+void ExpectEstimate(const Case& c, const DamageInstance& d, double volume_tol, double depth_tol_m) {
+  const double v = Scene(c).TrueVolumeM3();
+  std::printf("  estimate: depth %.1f mm (seen %.1f, true %.1f), volume %.6f (seen %.6f, true %.6f): %+.1f %% (seen %+.1f %%), "
+              "area %+.1f %%\n", d.max_depth_m * 1000, d.max_depth_seen_m * 1000, c.depth_m * 1000, d.volume_m3,
+              d.volume_seen_m3, v, 100 * (d.volume_m3 / v - 1), 100 * (d.volume_seen_m3 / v - 1),
+              100 * (d.area_m2 / Scene(c).TrueAreaM2() - 1));
+  EXPECT_NEAR(d.volume_m3, v, volume_tol * v);
+  EXPECT_GT(std::abs(d.volume_seen_m3 - v), volume_tol * v) << "the seen volume alone would pass";
+  EXPECT_NEAR(d.max_depth_m, c.depth_m, depth_tol_m);
+}
+
 // A car's view (1.5 m, pitched 15°): a deep cap at 6 m (grazing ~14°) hides its floor.
-TEST(FloorVisibility, CarDeepCapHidden) { Check({1.5, 15, 0.08, 0.15, 6.0}, false); }
-TEST(FloorVisibility, CarDeeperCapNearerHidden) { Check({1.5, 15, 0.12, 0.15, 5.0}, false); }
+TEST(FloorVisibility, CarDeepCapHidden) {
+  const Case c{1.5, 15, 0.08, 0.15, 6.0};
+  ExpectEstimate(c, Check(c, false), 0.15, 0.010);
+}
+TEST(FloorVisibility, CarDeeperCapNearerHidden) {
+  const Case c{1.5, 15, 0.12, 0.15, 5.0};
+  ExpectEstimate(c, Check(c, false), 0.15, 0.010);
+}
+// A wide cap whose floor the car sees, but not the near wall's wedge behind the rim.
+TEST(FloorVisibility, CarWideCapWedge) {
+  const Case c{1.5, 15, 0.12, 0.35, 4.0};
+  ExpectEstimate(c, Check(c, true), 0.06, 0.010);
+}
 // The same view, a shallow wide cap: the rays reach its floor.
 TEST(FloorVisibility, CarShallowCapSeen) { Check({1.5, 15, 0.025, 0.3, 5.0}, true); }
 // The deep cap seen steeply (45° pitch at 2.2 m, and a drone 4 m up pitched 80°): nothing hidden.

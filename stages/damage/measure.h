@@ -16,17 +16,25 @@ namespace rs {
 /// plane at camera depth Z covers Z³ / (f² · h), h = camera height above the plane.
 cv::Mat PixelAreaOnRoad(const RoadRelief& relief, const StereoGeometry& geometry, const RoadSurface& surface);
 
-/// Grows each instance of `labels` (in place) into connected pixels deeper below the road than
-/// the rim threshold, within a band of 30 % of the instance's equivalent radius: the threshold
-/// of the unsupervised segmentation stops short of the shallow rim. Rim threshold = the level of
-/// the ring between one and two bands outside the instance (median depth there, if > 0: local
-/// road-model misfit) plus the largest of `rim_depth_m`, `rim_depth_fraction` × the instance's
-/// depth (99th percentile) and 3 robust σ of the ring's depth (stereo noise). With
-/// `ring_window_px` > 0 (the relief's smoothing window), whole one-pixel rings outside that then
-/// join while their mean depth exceeds the ring's level by 2 σ of a mean (σ·w/√n) and the level
-/// plus the first two terms (the wall's shallow outer part, below the per-pixel noise).
+/// Sets each instance of `labels` (in place) to the part of the road it lowers, as the depth
+/// shows it: the threshold of the unsupervised segmentation stops short of the shallow rim, and
+/// its superpixels straddle it. Per instance, within a band of 30 % of its equivalent radius,
+/// distances measured on the road (`row_elongation`, per row: road length of a pixel along the
+/// column / across it, RoadRowElongation; empty = square pixels): the road level is a plane fitted
+/// (robustly) to the depth of the ring between one and two bands outside (the local road-model
+/// misfit; its residual σ is the stereo noise); the rim threshold above that plane is the largest
+/// of `rim_depth_m`, `rim_depth_fraction` × the instance's depth (99th percentile) and 3 σ.
+/// Outer pixels of the instance shallower than it (connected to the outside through such
+/// pixels) are dropped, connected pixels deeper than it join. With `ring_window_px` > 0 (the
+/// relief's smoothing window), whole one-pixel rings outside that then join while their mean
+/// depth above the plane exceeds 2 σ of a mean (σ·w/√n) and the first two terms (the wall's
+/// shallow outer part, below the per-pixel noise). `raw_depth_below_mm` (optional, CV_32F): the
+/// unsmoothed depth below the quadratic road model (EvaluateRoadModel's), on which the rim is
+/// found (the relief's correction_mm applied here; its per-pixel noise measured on the ring):
+/// the relief's smoothing spreads a wall's depth beyond the rim.
 void ExtendToRim(cv::Mat& labels, const RoadRelief& relief, double rim_depth_m, double rim_depth_fraction = 0,
-                 int ring_window_px = 0);
+                 int ring_window_px = 0, const std::vector<double>& row_elongation = {},
+                 const cv::Mat& raw_depth_below_mm = cv::Mat());
 
 /// Measures every instance 1..max of a CV_16U label image. Invalid pixels inside an
 /// instance count for area and take the instance's mean depth for the volume.

@@ -13,8 +13,13 @@
 
 namespace rs {
 
-cv::Mat LocalReliefNoise(const cv::Mat& value, const cv::Mat& valid, double level, int cell, double floor_sigma,
-                         double max_ratio, double quantile) {
+namespace {
+
+// LocalReliefNoise of `value`, or (kMirrored) of −value with `level` already mirrored: the
+// samples below the level, without a negated copy of the frame (the same values).
+template <bool kMirrored>
+cv::Mat NoiseOf(const cv::Mat& value, const cv::Mat& valid, double level, int cell, double floor_sigma,
+                double max_ratio, double quantile) {
   if (value.type() != CV_32FC1 || valid.type() != CV_8UC1 || value.size() != valid.size())
     throw std::invalid_argument("LocalReliefNoise: value must be CV_32F with a CV_8U mask of the same size");
   if (cell < 4 || !(floor_sigma > 0) || !(max_ratio > 0) || !(quantile > 0 && quantile < 1))
@@ -36,8 +41,9 @@ cv::Mat LocalReliefNoise(const cv::Mat& value, const cv::Mat& valid, double leve
         for (int u = gx * cell; u < std::min((gx + 1) * cell, value.cols); u += 3) {
           if (!m[u]) continue;
           ++seen;
+          const float xu = kMirrored ? -x[u] : x[u];
           // Far above the road is structure, not noise (an obstacle's smoothed fringe, a bent model).
-          if (x[u] > level && x[u] < level + max_ratio * floor_sigma) up.push_back(static_cast<float>(x[u] - level));
+          if (xu > level && xu < level + max_ratio * floor_sigma) up.push_back(static_cast<float>(xu - level));
         }
       }
       // Road has about half its samples above the level; a cell with far fewer is mostly damage,
@@ -56,6 +62,18 @@ cv::Mat LocalReliefNoise(const cv::Mat& value, const cv::Mat& valid, double leve
   cv::Mat full;
   cv::resize(grid, full, {gw * cell, gh * cell}, 0, 0, cv::INTER_LINEAR);
   return full(cv::Rect({}, value.size()));  // a view: no copy
+}
+
+}  // namespace
+
+cv::Mat LocalReliefNoise(const cv::Mat& value, const cv::Mat& valid, double level, int cell, double floor_sigma,
+                         double max_ratio, double quantile) {
+  return NoiseOf<false>(value, valid, level, cell, floor_sigma, max_ratio, quantile);
+}
+
+cv::Mat LocalReliefNoiseBelow(const cv::Mat& value, const cv::Mat& valid, double level, int cell_px,
+                              double floor_sigma, double max_ratio) {
+  return NoiseOf<true>(value, valid, -level, cell_px, floor_sigma, max_ratio, 0.5);
 }
 
 }  // namespace rs

@@ -25,6 +25,11 @@ namespace rs {
 cv::Mat LocalReliefNoise(const cv::Mat& value, const cv::Mat& valid, double level, int cell_px, double floor_sigma,
                          double max_ratio = std::numeric_limits<double>::infinity(), double quantile = 0.5);
 
+/// LocalReliefNoise of the samples below `level`: the same as LocalReliefNoise(−value, valid,
+/// −level, cell_px, floor_sigma, max_ratio), without the negated copy of the image.
+cv::Mat LocalReliefNoiseBelow(const cv::Mat& value, const cv::Mat& valid, double level, int cell_px,
+                              double floor_sigma, double max_ratio = std::numeric_limits<double>::infinity());
+
 /// How far the road's matching errors reach: the `quantile` (e.g. 0.999) of the upward
 /// deviations (x − level) per cell, as LocalReliefNoise otherwise. SGM's wrong winners (a
 /// wrong disparity minimum over a ~10 px patch) err either way; upward they cannot be damage,

@@ -73,5 +73,28 @@ TEST(ReliefNoise, BadInput) {
   EXPECT_FLOAT_EQ(LocalReliefNoise(value, valid, 2.0, 16, 0.1).at<float>(10, 10), 0.1f);
 }
 
+// The spread below the level equals LocalReliefNoise of the mirrored image exactly (it replaced a
+// negated copy of the frame in TwoSidedReliefNoise): a skewed relief at an awkward size, so the
+// two sides differ and the comparison can fail.
+TEST(ReliefNoise, BelowEqualsMirrored) {
+  cv::Mat value(419, 631, CV_32F), valid(value.size(), CV_8U);
+  std::mt19937 rng(11);
+  std::normal_distribution<float> n(0.f, 1.f);
+  std::uniform_int_distribution<int> drop(0, 9);
+  for (int v = 0; v < value.rows; ++v)
+    for (int u = 0; u < value.cols; ++u) {
+      const float e = n(rng);
+      value.at<float>(v, u) = 30.0f + (e < 0 ? (u < 300 ? 0.4f : 0.1f) : 0.2f) * e;
+      valid.at<uchar>(v, u) = drop(rng) == 0 ? 0 : 255;
+    }
+  const cv::Mat below = LocalReliefNoiseBelow(value, valid, 30.0, 48, 0.05, 40.0);
+  const cv::Mat mirrored = LocalReliefNoise(-value, valid, -30.0, 48, 0.05, 40.0);
+  ASSERT_EQ(below.size(), value.size());
+  EXPECT_EQ(cv::norm(below, mirrored, cv::NORM_INF), 0.0);
+  // And it measures the lower side: 0.4 on the left, 0.1 on the right.
+  EXPECT_NEAR(below.at<float>(200, 100), 0.4, 0.04);
+  EXPECT_NEAR(below.at<float>(200, 550), 0.1, 0.01);
+}
+
 }  // namespace
 }  // namespace rs

@@ -122,13 +122,19 @@ double SmoothReliefRows(RoadRelief& r, const std::vector<cv::Size>& windows, int
     const float* ts = tsum.ptr<float>(v);
     float* db = r.depth_below_mm.ptr<float>(v);
     float* td = r.transformed_disparity_px.ptr<float>(v);
-    for (int u = 0; u < r.depth_below_mm.cols; ++u) {
-      if (!va[u]) continue;  // stays NaN / 0
+    // Branch-free (every quotient computed, the pixel's own values kept by a select), so the
+    // compiler vectorises the divisions; the same values as skipping.
+    const int cols = r.depth_below_mm.cols;
+    const float lim = limit;  // locals: the stores below could alias what the lambda captures
+    for (int u = 0; u < cols; ++u) {
       const float n = ws[u] / 255.0f;  // exact: ws = 255 × count
-      const float t = std::max(1e-3f, ts[u] / n);  // valid stays > 0
-      if (limit > 0 && std::abs(td[u] - t) > limit) continue;  // a step: keeps its own values
-      db[u] = ds[u] / n;
-      td[u] = t;
+      const float q = ts[u] / n;
+      const float t = 1e-3f < q ? q : 1e-3f;  // std::max(1e-3f, q): valid stays > 0
+      // Invalid pixels stay NaN / 0; a step keeps its own values.
+      const bool keep = (va[u] == 0) | ((lim > 0) & (std::abs(td[u] - t) > lim));
+      const float dq = ds[u] / n;
+      db[u] = keep ? db[u] : dq;
+      td[u] = keep ? td[u] : t;
     }
   });
   return sigma;

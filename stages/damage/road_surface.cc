@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <numeric>
 #include <random>
@@ -14,6 +15,7 @@
 #include <vector>
 
 #include "stages/damage/grid_fill.h"
+#include "stages/damage/order_statistic.h"
 #include "stages/damage/rect_merge.h"
 #include "stages/damage/relief_smooth.h"
 
@@ -31,12 +33,14 @@ Eigen::Vector3d Backproject(const StereoGeometry& g, double u, double v, double 
   return {(u - g.cx_px) * z / g.f_px, (v - g.cy_px) * z / g.f_px, z};
 }
 
-double Median(std::vector<double> v) {
+// Reorders `v`.
+double MedianInPlace(std::vector<double>& v) {
   if (v.empty()) return kNaN;
   auto mid = v.begin() + v.size() / 2;
   std::nth_element(v.begin(), mid, v.end());
   return *mid;
 }
+
 
 // Plane frame from a normal: n towards the camera, e1 along the camera x axis.
 void SetFrame(RoadSurface& s, Eigen::Vector3d n, const Eigen::Vector3d& origin) {
@@ -56,6 +60,23 @@ Eigen::Matrix<double, 6, 1> Monomials(double s, double t) {
   Eigen::Matrix<double, 6, 1> m;
   m << 1, s, t, s * s, s * t, t * t;
   return m;
+}
+
+// Four lanes of doubles (GCC/Clang vector extensions): the per-pixel model kernels below
+// evaluate four pixels at once, branch-free, with SIMD divisions (which dominate them); the
+// same expressions as their one-pixel versions, so the same values.
+using V4d = double __attribute__((vector_size(32)));
+using V4l = long long __attribute__((vector_size(32)));
+using V4f = float __attribute__((vector_size(16)));
+
+inline V4d Abs4(V4d x) { return x < 0 ? -x : x; }  // sign of zero irrelevant: only compared
+
+// x = (u − cx) / f of the pixel ray, for the columns u = u0 .. u0 + n − 1 (one division per
+// column instead of per pixel; the same values).
+std::vector<double> RayColumns(const StereoGeometry& g, int u0, int n) {
+  std::vector<double> xs(std::max(0, n));
+  for (int u = 0; u < n; ++u) xs[u] = (u + u0 - g.cx_px) / g.f_px;
+  return xs;
 }
 
 }  // namespace
@@ -169,22 +190,26 @@ RoadSurface FitRoadSurface(const cv::Mat& disparity_px, const StereoGeometry& g,
 
   // 2. Obstacles first (far above the current model), then the Tukey-IRLS quadratic; twice, so a
   //    curved road is judged against the curved model, not the plane.
-  std::vector<double> st_s(pts.size()), st_t(pts.size()), h(pts.size());
+  // The monomials of each sample's plane coordinates, computed once for every IRLS pass (built
+  // in a temporary each time, they went through the stack: store-forwarding stalls).
+  std::vector<Eigen::Matrix<double, 6, 1>> mono(pts.size());
+  std::vector<double> h(pts.size());
   for (size_t i = 0; i < pts.size(); ++i) {
     const Eigen::Vector3d r = pts[i] - s.origin_m;
-    st_s[i] = s.e1.dot(r) / s.scale_m;
-    st_t[i] = s.e2.dot(r) / s.scale_m;
+    mono[i] = Monomials(s.e1.dot(r) / s.scale_m, s.e2.dot(r) / s.scale_m);
     h[i] = s.normal.dot(r);
   }
   std::vector<char> obstacle(pts.size(), 0);
   std::vector<double> w(pts.size(), 1.0), res(pts.size());
   double sigma = o.min_noise_m;
+  std::vector<double> absr;  // one buffer for every IRLS pass (200 kB: a fresh one page-faults)
+  absr.reserve(pts.size());
   // `offroad` samples take no part in the fit (they are not flagged obstacles).
   auto fit = [&](const std::vector<char>& offroad, bool whole_region) {
     s.coeffs.setZero();
     for (int round = 0; round < 2; ++round) {
       for (size_t i = 0; i < pts.size(); ++i) {
-        res[i] = h[i] - s.coeffs.dot(Monomials(st_s[i], st_t[i]));
+        res[i] = h[i] - s.coeffs.dot(mono[i]);
         obstacle[i] = res[i] > o.obstacle_height_m;
         // Start each round from the band inliers: damage and obstacles start with zero weight. The
         // first round starts wider, so both lanes of a crowned (roof-shaped) road take part even
@@ -197,21 +222,27 @@ RoadSurface FitRoadSurface(const cv::Mat& disparity_px, const StereoGeometry& g,
         Eigen::Matrix<double, 6, 1> Atb = Eigen::Matrix<double, 6, 1>::Zero();
         for (size_t i = 0; i < pts.size(); ++i) {
           if (w[i] <= 0) continue;
-          const auto m = Monomials(st_s[i], st_t[i]);
-          AtA.selfadjointView<Eigen::Lower>().rankUpdate(m, w[i]);
+          const auto& m = mono[i];
+          // AtA.selfadjointView<Lower>().rankUpdate(m, w[i]), written out: Eigen's is an
+          // out-of-line call per sample (the same operations: column j += (w·m_j)·m_j..5).
+          double* a = AtA.data();
+          for (int j = 0; j < 6; ++j) {
+            const double wm = w[i] * m[j];
+            for (int k = j; k < 6; ++k) a[6 * j + k] += wm * m[k];
+          }
           Atb += w[i] * h[i] * m;
         }
         AtA = AtA.selfadjointView<Eigen::Lower>();
         s.coeffs = AtA.ldlt().solve(Atb);
-        std::vector<double> absr;
-        absr.reserve(pts.size());
+        absr.clear();
         for (size_t i = 0; i < pts.size(); ++i) {
-          res[i] = h[i] - s.coeffs.dot(Monomials(st_s[i], st_t[i]));
+          res[i] = h[i] - s.coeffs.dot(mono[i]);
           if (!obstacle[i] && w[i] > 0) absr.push_back(std::abs(res[i]));
         }
         // First round: scale floored at the plane band (a wide Tukey window, graduated
         // non-convexity); the second round shrinks to the data's own spread.
-        sigma = std::max(round == 0 ? o.ransac_inlier_m : o.min_noise_m, 1.4826 * Median(absr));
+        const double median_abs = absr.empty() ? kNaN : KthSmallestNonNegative(absr, absr.size() / 2);
+        sigma = std::max(round == 0 ? o.ransac_inlier_m : o.min_noise_m, 1.4826 * median_abs);
         for (size_t i = 0; i < pts.size(); ++i) {
           if (obstacle[i] || offroad[i]) { w[i] = 0; continue; }
           const double x = res[i] / (kTukeyC * sigma);
@@ -255,10 +286,10 @@ RoadSurface FitRoadSurface(const cv::Mat& disparity_px, const StereoGeometry& g,
     // plane band (it is the same road seen past an obstacle).
     std::vector<std::vector<double>> r_of(n_regions);
     for (size_t i = 0; i < pts.size(); ++i)
-      if (offroad[i]) r_of[region[i]].push_back(h[i] - s.coeffs.dot(Monomials(st_s[i], st_t[i])));
+      if (offroad[i]) r_of[region[i]].push_back(h[i] - s.coeffs.dot(mono[i]));
     bool rejoined = false;
     for (int k = 1; k < n_regions; ++k)
-      if (!r_of[k].empty() && std::abs(Median(r_of[k])) < o.ransac_inlier_m) {
+      if (!r_of[k].empty() && std::abs(MedianInPlace(r_of[k])) < o.ransac_inlier_m) {
         rejoined = true;
         for (size_t i = 0; i < pts.size(); ++i)
           if (region[i] == k) offroad[i] = 0;
@@ -355,10 +386,58 @@ LocalCorrection ComputeLocalCorrection(const cv::Mat& depth, const cv::Mat& obst
 
 // Applies the correction `corr` to the uncorrected relief `r`, whose pixel (0, 0) is image
 // pixel `at` (r, disparity_px and corr all of one size).
+// One pixel of ApplyCorrection (x, y: the ray's (u − cx)/f, (v − cy)/f; n: the plane normal).
+inline void CorrectPixel(double x, double y, double nx, double ny, double nz, double fb, double delta, float c,
+                         float d, uchar valid, float* td, float* db, float* rz) {
+  if (!std::isfinite(*rz)) return;
+  // Height of Z·ray above the plane changes by (n·ray) per metre of Z: lowering the road
+  // by c moves its ray intersection ΔZ = −c / (n·ray) further.
+  const double nr = nx * x + ny * y + nz;
+  if (std::abs(nr) < 1e-6) return;
+  const double dz = -1e-3 * c / nr;
+  if (!(*rz + dz > 0)) return;
+  *rz = static_cast<float>(*rz + dz);
+  if (!valid) return;
+  *db -= c;
+  *td = static_cast<float>(std::max(1e-3, d - fb / *rz + delta));
+}
+
+// Four pixels of CorrectPixel at once, branch-free with per-lane selects (bit-identical).
+void CorrectPixels4(const double* xs, double y, double nx, double ny, double nz, double fb, double delta,
+                    const float* c, const float* d, const uchar* valid, float* td, float* db, float* rz) {
+  V4d x;
+  std::memcpy(&x, xs, sizeof x);
+  V4f cf, df, rzf;
+  std::memcpy(&cf, c, sizeof cf);
+  std::memcpy(&df, d, sizeof df);
+  std::memcpy(&rzf, rz, sizeof rzf);
+  const V4d cd = __builtin_convertvector(cf, V4d), dd = __builtin_convertvector(df, V4d);
+  const V4d rzd = __builtin_convertvector(rzf, V4d);
+  const V4d nr = nx * x + ny * y + nz;
+  const V4d dz = -1e-3 * cd / nr;
+  const V4d sum = rzd + dz;
+  const V4l move = (Abs4(rzd) <= std::numeric_limits<double>::max()) & (Abs4(nr) >= 1e-6) & (sum > 0);
+  V4f moved;
+  for (int i = 0; i < 4; ++i) moved[i] = static_cast<float>(sum[i]);
+  const V4d t = dd - fb / __builtin_convertvector(moved, V4d) + delta;
+  const V4d tc = 1e-3 < t ? t : 1e-3;
+  for (int i = 0; i < 4; ++i) {
+    if (!move[i]) continue;
+    rz[i] = moved[i];
+    if (!valid[i]) continue;
+    db[i] -= c[i];
+    td[i] = static_cast<float>(tc[i]);
+  }
+}
+
+// Applies the correction `corr` to the uncorrected relief `r`, whose pixel (0, 0) is image
+// pixel `at` (r, disparity_px and corr all of one size).
 void ApplyCorrection(RoadRelief& r, const cv::Mat& corr, const cv::Mat& disparity_px, cv::Point at,
                      const StereoGeometry& g, const RoadSurface& s, const RoadModelOptions& o) {
   r.correction_mm = corr;
-  const double fb = g.f_px * g.baseline_m;
+  const double fb = g.f_px * g.baseline_m, delta = o.delta_px;
+  const double nx = s.normal.x(), ny = s.normal.y(), nz = s.normal.z();
+  const std::vector<double> xs = RayColumns(g, at.x, corr.cols);  // one division per column
   tbb::parallel_for(0, corr.rows, [&](int v) {
     const float* c = corr.ptr<float>(v);
     const float* d = disparity_px.ptr<float>(v);
@@ -367,20 +446,10 @@ void ApplyCorrection(RoadRelief& r, const cv::Mat& corr, const cv::Mat& disparit
     float* rz = r.road_depth_m.ptr<float>(v);
     const uchar* va = r.valid_mask.ptr<uchar>(v);
     const double y = (v + at.y - g.cy_px) / g.f_px;
-    for (int u = 0; u < corr.cols; ++u) {
-      if (!std::isfinite(rz[u])) continue;
-      // Height of Z·ray above the plane changes by (n·ray) per metre of Z: lowering the road
-      // by c moves its ray intersection ΔZ = −c / (n·ray) further.
-      const double x = (u + at.x - g.cx_px) / g.f_px;
-      const double nr = s.normal.x() * x + s.normal.y() * y + s.normal.z();
-      if (std::abs(nr) < 1e-6) continue;
-      const double dz = -1e-3 * c[u] / nr;
-      if (!(rz[u] + dz > 0)) continue;
-      rz[u] = static_cast<float>(rz[u] + dz);
-      if (!va[u]) continue;
-      db[u] -= c[u];
-      td[u] = static_cast<float>(std::max(1e-3, d[u] - fb / rz[u] + o.delta_px));
-    }
+    int u = 0;
+    for (; u + 4 <= corr.cols; u += 4)
+      CorrectPixels4(&xs[u], y, nx, ny, nz, fb, delta, c + u, d + u, va + u, td + u, db + u, rz + u);
+    for (; u < corr.cols; ++u) CorrectPixel(xs[u], y, nx, ny, nz, fb, delta, c[u], d[u], va[u], td + u, db + u, rz + u);
   });
 }
 
@@ -393,6 +462,105 @@ std::vector<cv::Size> SmoothWindows(int rows, const StereoGeometry& g, const Roa
 
 namespace {
 
+// The quadratic model's per-frame constants for EvaluateRect: s, t, h of P = Z·ray are
+// Z·(k·ray) + b with ray = ((u − cx)/f, (v − cy)/f, 1). Plain locals: read through the
+// RoadSurface, the compiler reloads them after every store (possible aliasing).
+struct ModelConstants {
+  double c[6];
+  double ksx, ksy, ksz, ktx, kty, ktz, khx, khy, khz, bs, bt, bh;
+  double fb, obstacle_m, delta;
+};
+
+// One pixel of EvaluateRect: x = (u − cx)/f, y = (v − cy)/f; writes the five outputs.
+inline void EvaluatePixel(const ModelConstants& k, double x, double y, float d, float* td, float* db, float* rz,
+                          uchar* ob, uchar* va) {
+  const double* c = k.c;
+  const double bs = k.bs, bt = k.bt, bh = k.bh;
+  const double as = k.ksx * x + k.ksy * y + k.ksz, at = k.ktx * x + k.kty * y + k.ktz;
+  const double ah = k.khx * x + k.khy * y + k.khz;
+  // Road: h(Z) = q(s(Z), t(Z)), a quadratic A Z² + B Z + C = 0 (as RoadSurface::RayDepth).
+  const double A = -(c[3] * as * as + c[4] * as * at + c[5] * at * at);
+  const double B = ah - c[1] * as - c[2] * at - (2 * c[3] * as * bs + c[4] * (as * bt + at * bs) + 2 * c[5] * at * bt);
+  const double C = bh - c[0] - c[1] * bs - c[2] * bt - (c[3] * bs * bs + c[4] * bs * bt + c[5] * bt * bt);
+  double z_road = std::numeric_limits<double>::quiet_NaN();
+  if (std::abs(B) > 1e-12) {
+    const double z_lin = -C / B;
+    if (std::abs(A * z_lin * z_lin) < 1e-9 * std::abs(C) + 1e-15) {
+      z_road = z_lin;
+    } else {
+      const double disc = B * B - 4 * A * C;
+      if (disc >= 0) {
+        const double sq = std::sqrt(disc), qq = -0.5 * (B + (B >= 0 ? sq : -sq));
+        const double z1 = qq / A, z2 = C / qq;
+        z_road = std::abs(z1 - z_lin) < std::abs(z2 - z_lin) ? z1 : z2;
+      }
+    }
+    if (!(z_road > 0)) z_road = std::numeric_limits<double>::quiet_NaN();
+  }
+  *rz = static_cast<float>(z_road);
+  // A ray that misses the road (above the horizon) has no relief.
+  const bool ok = ValidDisparity(d) && std::isfinite(z_road);
+  *va = ok ? 255 : 0;
+  if (!ok) {
+    *td = 0;
+    *db = std::numeric_limits<float>::quiet_NaN();
+    *ob = 0;
+    return;
+  }
+  const double z = k.fb / d;
+  const double ps = z * as + bs, pt = z * at + bt, ph = z * ah + bh;
+  const double below = c[0] + c[1] * ps + c[2] * pt + c[3] * ps * ps + c[4] * ps * pt + c[5] * pt * pt - ph;
+  *db = static_cast<float>(below * 1000.0);
+  *ob = -below > k.obstacle_m ? 255 : 0;
+  // Keep invalid = 0 distinguishable from a very deep pixel: clamp valid values to a tiny positive.
+  *td = static_cast<float>(std::max(1e-3, d - k.fb / z_road + k.delta));
+}
+
+// Four pixels of EvaluatePixel at once, branch-free with per-lane selects (bit-identical).
+
+void EvaluatePixels4(const ModelConstants& k, const double* xs, double y, const float* d, float* td, float* db,
+                     float* rz, uchar* ob, uchar* va) {
+  const double* c = k.c;
+  const double bs = k.bs, bt = k.bt, bh = k.bh;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  V4d x;
+  std::memcpy(&x, xs, sizeof x);
+  const V4d as = k.ksx * x + k.ksy * y + k.ksz, at = k.ktx * x + k.kty * y + k.ktz;
+  const V4d ah = k.khx * x + k.khy * y + k.khz;
+  const V4d A = -(c[3] * as * as + c[4] * as * at + c[5] * at * at);
+  const V4d B = ah - c[1] * as - c[2] * at - (2 * c[3] * as * bs + c[4] * (as * bt + at * bs) + 2 * c[5] * at * bt);
+  const double C = bh - c[0] - c[1] * bs - c[2] * bt - (c[3] * bs * bs + c[4] * bs * bt + c[5] * bt * bt);
+  const V4d z_lin = -C / B;
+  const V4l lin = Abs4(A * z_lin * z_lin) < 1e-9 * std::abs(C) + 1e-15;
+  const V4d disc = B * B - 4 * A * C;
+  V4d sq;
+  for (int i = 0; i < 4; ++i) sq[i] = disc[i] >= 0 ? std::sqrt(disc[i]) : 0.0;
+  const V4d qq = -0.5 * (B + (B >= 0 ? sq : -sq));
+  const V4d z1 = qq / A, z2 = C / qq;
+  const V4d zq = Abs4(z1 - z_lin) < Abs4(z2 - z_lin) ? z1 : z2;
+  V4d z_road = lin ? z_lin : (disc >= 0 ? zq : nan);
+  z_road = (Abs4(B) > 1e-12) & (z_road > 0) ? z_road : nan;
+  V4f df;
+  std::memcpy(&df, d, sizeof df);
+  const V4d dd = __builtin_convertvector(df, V4d);
+  const double dmax = std::numeric_limits<double>::max();
+  const V4l ok = (Abs4(dd) <= dmax) & (dd > 0) & (Abs4(z_road) <= dmax);
+  const V4d z = k.fb / dd;
+  const V4d ps = z * as + bs, pt = z * at + bt, ph = z * ah + bh;
+  const V4d below = c[0] + c[1] * ps + c[2] * pt + c[3] * ps * ps + c[4] * ps * pt + c[5] * pt * pt - ph;
+  const V4d below_mm = below * 1000.0;
+  const V4d t = dd - k.fb / z_road + k.delta;
+  const V4d tc = 1e-3 < t ? t : 1e-3;
+  const V4l obstacle = -below > k.obstacle_m;
+  for (int i = 0; i < 4; ++i) {
+    rz[i] = static_cast<float>(z_road[i]);
+    va[i] = ok[i] ? 255 : 0;
+    td[i] = ok[i] ? static_cast<float>(tc[i]) : 0.0f;
+    db[i] = ok[i] ? static_cast<float>(below_mm[i]) : std::numeric_limits<float>::quiet_NaN();
+    ob[i] = ok[i] && obstacle[i] ? 255 : 0;
+  }
+}
+
 // The quadratic model evaluated on the pixels of `roi` (the relief's pixel (0, 0) is roi.tl()).
 RoadRelief EvaluateRect(const cv::Mat& disparity_px, const StereoGeometry& g, const RoadSurface& s,
                         const RoadModelOptions& o, const cv::Rect& roi) {
@@ -403,14 +571,15 @@ RoadRelief EvaluateRect(const cv::Mat& disparity_px, const StereoGeometry& g, co
   r.road_depth_m.create(size, CV_32F);
   r.obstacle_mask.create(size, CV_8U);
   r.valid_mask.create(size, CV_8U);
-  const float nanf = std::numeric_limits<float>::quiet_NaN();
-  const double fb = g.f_px * g.baseline_m;
-  // Per frame: s, t, h of P = Z·ray are Z·(a·ray) + b with ray = ((u − cx)/f, (v − cy)/f, 1);
-  // the a·ray terms are affine in u, so a row costs a few multiply-adds per pixel.
   const double L = s.scale_m;
   const Eigen::Vector3d ks = s.e1 / L, kt = s.e2 / L, kh = s.normal;
-  const double bs = -ks.dot(s.origin_m), bt = -kt.dot(s.origin_m), bh = -kh.dot(s.origin_m);
-  const auto& c = s.coeffs;
+  ModelConstants k;
+  for (int i = 0; i < 6; ++i) k.c[i] = s.coeffs[i];
+  k.ksx = ks.x(), k.ksy = ks.y(), k.ksz = ks.z(), k.ktx = kt.x(), k.kty = kt.y(), k.ktz = kt.z();
+  k.khx = kh.x(), k.khy = kh.y(), k.khz = kh.z();
+  k.bs = -ks.dot(s.origin_m), k.bt = -kt.dot(s.origin_m), k.bh = -kh.dot(s.origin_m);
+  k.fb = g.f_px * g.baseline_m, k.obstacle_m = o.obstacle_height_m, k.delta = o.delta_px;
+  const std::vector<double> xs = RayColumns(g, roi.x, size.width);  // one division per column
   tbb::parallel_for(0, size.height, [&](int v) {
     const float* d = disparity_px.ptr<float>(v + roi.y) + roi.x;
     float* td = r.transformed_disparity_px.ptr<float>(v);
@@ -419,47 +588,10 @@ RoadRelief EvaluateRect(const cv::Mat& disparity_px, const StereoGeometry& g, co
     uchar* ob = r.obstacle_mask.ptr<uchar>(v);
     uchar* va = r.valid_mask.ptr<uchar>(v);
     const double y = (v + roi.y - g.cy_px) / g.f_px;
-    for (int u = 0; u < size.width; ++u) {
-      const double x = (u + roi.x - g.cx_px) / g.f_px;
-      const double as = ks.x() * x + ks.y() * y + ks.z(), at = kt.x() * x + kt.y() * y + kt.z();
-      const double ah = kh.x() * x + kh.y() * y + kh.z();
-      // Road: h(Z) = q(s(Z), t(Z)), a quadratic A Z² + B Z + C = 0 (as RoadSurface::RayDepth).
-      const double A = -(c[3] * as * as + c[4] * as * at + c[5] * at * at);
-      const double B = ah - c[1] * as - c[2] * at - (2 * c[3] * as * bs + c[4] * (as * bt + at * bs) + 2 * c[5] * at * bt);
-      const double C = bh - c[0] - c[1] * bs - c[2] * bt - (c[3] * bs * bs + c[4] * bs * bt + c[5] * bt * bt);
-      double z_road = std::numeric_limits<double>::quiet_NaN();
-      if (std::abs(B) > 1e-12) {
-        const double z_lin = -C / B;
-        if (std::abs(A * z_lin * z_lin) < 1e-9 * std::abs(C) + 1e-15) {
-          z_road = z_lin;
-        } else {
-          const double disc = B * B - 4 * A * C;
-          if (disc >= 0) {
-            const double sq = std::sqrt(disc), qq = -0.5 * (B + (B >= 0 ? sq : -sq));
-            const double z1 = qq / A, z2 = C / qq;
-            z_road = std::abs(z1 - z_lin) < std::abs(z2 - z_lin) ? z1 : z2;
-          }
-        }
-        if (!(z_road > 0)) z_road = std::numeric_limits<double>::quiet_NaN();
-      }
-      rz[u] = static_cast<float>(z_road);
-      // A ray that misses the road (above the horizon) has no relief.
-      const bool ok = ValidDisparity(d[u]) && std::isfinite(z_road);
-      va[u] = ok ? 255 : 0;
-      if (!ok) {
-        td[u] = 0;
-        db[u] = nanf;
-        ob[u] = 0;
-        continue;
-      }
-      const double z = fb / d[u];
-      const double ps = z * as + bs, pt = z * at + bt, ph = z * ah + bh;
-      const double below = c[0] + c[1] * ps + c[2] * pt + c[3] * ps * ps + c[4] * ps * pt + c[5] * pt * pt - ph;
-      db[u] = static_cast<float>(below * 1000.0);
-      ob[u] = -below > o.obstacle_height_m ? 255 : 0;
-      // Keep invalid = 0 distinguishable from a very deep pixel: clamp valid values to a tiny positive.
-      td[u] = static_cast<float>(std::max(1e-3, d[u] - fb / z_road + o.delta_px));
-    }
+    int u = 0;
+    for (; u + 4 <= size.width; u += 4)
+      EvaluatePixels4(k, &xs[u], y, d + u, td + u, db + u, rz + u, ob + u, va + u);
+    for (; u < size.width; ++u) EvaluatePixel(k, xs[u], y, d[u], td + u, db + u, rz + u, ob + u, va + u);
   });
   return r;  // correction_mm: set by FinishRoadRelief (zeros when the local correction is off)
 }

@@ -1,11 +1,16 @@
 #include "stages/damage/road_surface.h"
 
 #include "stages/damage/damage_pipeline.h"
+#include "stages/damage/order_statistic.h"
 
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
+#include <random>
+#include <vector>
 
 namespace rs {
 namespace {
@@ -75,6 +80,76 @@ TEST(RoadSurface, RefineEqualsRecompute) {
   EXPECT_LE(max_diff(refined.transformed_disparity_px, full.transformed_disparity_px), 1e-5);
   EXPECT_LE(max_diff(refined.road_depth_m, full.road_depth_m), 1e-6);
   EXPECT_LE(max_diff(refined.correction_mm, full.correction_mm), 1e-6);
+}
+
+// The radix selection of the IRLS median equals nth_element on residual-like samples (many
+// close values, duplicates, zeros, infinity) and falls back to it with negatives or NaN.
+TEST(RoadSurface, KthSmallestEqualsNthElement) {
+  std::mt19937 rng(5);
+  std::normal_distribution<double> n(0.0, 0.002);
+  for (int trial = 0; trial < 20; ++trial) {
+    std::vector<double> v(1000 + 977 * trial);
+    for (double& x : v) x = std::abs(n(rng));
+    for (size_t i = 0; i < v.size(); i += 7) v[i] = v[(i * 31) % v.size()];  // duplicates
+    v[3] = 0.0, v[5] = std::numeric_limits<double>::infinity();
+    if (trial == 18) v[11] = -1e-3;
+    if (trial == 19) v[13] = std::numeric_limits<double>::quiet_NaN();
+    for (size_t k : {size_t(0), v.size() / 2, v.size() - 1}) {
+      std::vector<double> a = v, b = v;
+      std::nth_element(b.begin(), b.begin() + static_cast<std::ptrdiff_t>(k), b.end());
+      if (trial == 19) {  // with NaN only the fallback's own answer is defined
+        EXPECT_EQ(KthSmallestNonNegative(a, k), a[k]);
+        continue;
+      }
+      EXPECT_EQ(KthSmallestNonNegative(a, k), b[k]) << "trial " << trial << " k " << k;
+    }
+  }
+  std::vector<double> same(5000, 0.25);  // one bucket holds everything
+  EXPECT_EQ(KthSmallestNonNegative(same, 2500), 0.25);
+}
+
+// The per-pixel model evaluation (four pixels at a time, branch-free; one at a time in a row's
+// last width % 4 pixels) against a naive reference built from RoadSurface::RayDepth and
+// DepthBelow, on the noisy benchmark frame (potholes, a slab above the obstacle height, pixels
+// without disparity) at an awkward size.
+TEST(RoadSurface, EvaluateMatchesPixelReference) {
+  const SyntheticRoadScene scene = BenchmarkRoadScene(631, 357);
+  const StereoGeometry& g = scene.geometry;
+  const cv::Mat d = scene.Render();
+  const RoadModelOptions o;
+  const RoadSurface s = FitRoadSurface(d, g, o);
+  const RoadRelief r = EvaluateRoadModel(d, g, s, o);
+  const double fb = g.f_px * g.baseline_m;
+  int bad = 0, valid = 0, invalid = 0, obstacles = 0;
+  for (int v = 0; v < d.rows; ++v)
+    for (int u = 0; u < d.cols; ++u) {
+      const double z_road = s.RayDepth(g, u, v);
+      const float rz = r.road_depth_m.at<float>(v, u);
+      const float dd = d.at<float>(v, u);
+      const bool ok = std::isfinite(dd) && dd > 0 && std::isfinite(z_road);
+      bool same = std::isfinite(z_road) ? std::abs(rz - z_road) <= 1e-6 * z_road : std::isnan(rz);
+      same = same && (r.valid_mask.at<uchar>(v, u) != 0) == ok;
+      if (ok) {
+        ++valid;
+        const double z = fb / dd;
+        const Eigen::Vector3d p((u - g.cx_px) * z / g.f_px, (v - g.cy_px) * z / g.f_px, z);
+        const double below = s.DepthBelow(p);
+        const bool obstacle = -below > o.obstacle_height_m;
+        obstacles += obstacle;
+        same = same && std::abs(r.depth_below_mm.at<float>(v, u) - 1000 * below) <= 1e-3 &&
+               (r.obstacle_mask.at<uchar>(v, u) != 0) == obstacle &&
+               std::abs(r.transformed_disparity_px.at<float>(v, u) - std::max(1e-3, dd - fb / z_road + o.delta_px)) <= 1e-4;
+      } else {
+        ++invalid;
+        same = same && r.transformed_disparity_px.at<float>(v, u) == 0 && std::isnan(r.depth_below_mm.at<float>(v, u)) &&
+               r.obstacle_mask.at<uchar>(v, u) == 0;
+      }
+      bad += !same;
+    }
+  EXPECT_EQ(bad, 0);
+  EXPECT_GT(valid, 100000);  // every branch taken
+  EXPECT_GT(invalid, 1000);
+  EXPECT_GT(obstacles, 1000);
 }
 
 // Nadir view of a crowned road (2.5 % crossfall each side of the crown) with a 120 mm kerb and the

@@ -84,7 +84,7 @@ TEST(SegmentDepressions, LocalNoiseRejectsRipples) {
       const double r = std::hypot(u - 160, v - 180) / 50.0;
       value.at<float>(v, u) += static_cast<float>(30.0 - (r < 1 ? 1.0 * (1 - r * r) : 0.0));
     }
-  const ReliefImage relief{value, cv::Mat(value.size(), CV_8U, cv::Scalar(255))};
+  const ReliefImage relief{value, cv::Mat(value.size(), CV_8U, cv::Scalar(255)), {}};
   SegmentOptions o;
   o.min_area_px = 100;
   const ReliefScale scale = EstimateReliefScale(relief);

@@ -153,7 +153,8 @@ SimDamageEvaluation EvaluateSimulatedDamage(const fs::path& dir, const SimDamage
   SimDamageEvaluation r;
   std::vector<double> steps[4];
   std::vector<double> ms_damage, cpu_damage, ms_disp, road_abs_mm, depth_mm, visible_depth_mm, area_pct, volume_pct,
-      visible_volume_pct, seen_depth_mm, seen_volume_pct, bound_ratio, volume_ratio;
+      visible_volume_pct, seen_depth_mm, seen_volume_pct, bound_ratio, volume_ratio, hidden_depth_est_mm,
+      bounded_volume_est_pct;
   int within = 0, severity_ok = 0;
   double sigma_sum = 0, valid_sum = 0;
   std::set<int> unique;
@@ -329,15 +330,17 @@ SimDamageEvaluation EvaluateSimulatedDamage(const fs::path& dir, const SimDamage
         const DamageInstance& d = *pothole_det.at(m->second.first);
         ob.detected = true, ob.iou = m->second.second;
         ob.max_depth_m = d.max_depth_m, ob.area_m2 = d.area_m2, ob.volume_m3 = d.volume_m3;
+        ob.max_depth_seen_m = d.max_depth_seen_m, ob.volume_seen_m3 = d.volume_seen_m3;
         ob.sigma_depth_m = d.sigma_depth_m, ob.astm = d.astm.level;
         ++r.detected;
         const double de = d.max_depth_m - td.max_depth_m;
         depth_mm.push_back(1000.0 * de);
-        visible_depth_mm.push_back(1000.0 * (d.max_depth_m - ob.truth_visible_depth_m));
+        visible_depth_mm.push_back(1000.0 * (d.max_depth_seen_m - ob.truth_visible_depth_m));
         ob.truth_floor_hidden = td.max_depth_m - ob.truth_visible_depth_m > 0.010;
         r.occluded += ob.truth_floor_hidden;
         // The stage's line-of-sight verdict: where it says seen, the Done-when errors apply;
-        // where it says hidden, the truth must lie within the interval it states.
+        // where it says hidden, the truth must lie within the interval it states, and its
+        // estimate is scored apart.
         ob.floor_visible = d.floor_visible;
         ob.max_depth_bound_m = d.max_depth_bound_m, ob.volume_upper_m3 = d.volume_upper_m3;
         r.flag_agreements += d.floor_visible != ob.truth_floor_hidden;
@@ -348,20 +351,22 @@ SimDamageEvaluation EvaluateSimulatedDamage(const fs::path& dir, const SimDamage
         } else {
           ++r.hidden_matches;
           r.hidden_depth_contained +=
-              td.max_depth_m >= d.max_depth_m - 2 * d.sigma_depth_m && td.max_depth_m <= d.max_depth_bound_m;
+              td.max_depth_m >= d.max_depth_seen_m - 2 * d.sigma_depth_m && td.max_depth_m <= d.max_depth_bound_m;
           bound_ratio.push_back(d.max_depth_bound_m / td.max_depth_m);
+          hidden_depth_est_mm.push_back(1000.0 * de);
         }
         // The volume likewise: an upper bound is stated wherever the rim's shadow may hide some.
         if (!std::isfinite(d.volume_upper_m3)) {
           seen_volume_pct.push_back(100.0 * (d.volume_m3 - td.volume_m3) / td.volume_m3);
         } else {
           ++r.volume_bounded_matches;
-          r.hidden_volume_contained += td.volume_m3 >= d.volume_m3 - 2 * d.sigma_depth_m * d.area_m2 &&
+          r.hidden_volume_contained += td.volume_m3 >= d.volume_seen_m3 - 2 * d.sigma_depth_m * d.area_m2 &&
                                        td.volume_m3 <= d.volume_upper_m3;
           volume_ratio.push_back(d.volume_upper_m3 / td.volume_m3);
+          bounded_volume_est_pct.push_back(100.0 * (d.volume_m3 - td.volume_m3) / td.volume_m3);
         }
         if (ob.truth_visible_volume_m3 > 0)
-          visible_volume_pct.push_back(100.0 * (d.volume_m3 - ob.truth_visible_volume_m3) / ob.truth_visible_volume_m3);
+          visible_volume_pct.push_back(100.0 * (d.volume_seen_m3 - ob.truth_visible_volume_m3) / ob.truth_visible_volume_m3);
         area_pct.push_back(100.0 * (d.area_m2 - td.area_m2) / td.area_m2);
         volume_pct.push_back(100.0 * (d.volume_m3 - td.volume_m3) / td.volume_m3);
         within += std::abs(de) <= 2.0 * d.sigma_depth_m;
@@ -408,6 +413,8 @@ SimDamageEvaluation EvaluateSimulatedDamage(const fs::path& dir, const SimDamage
   r.seen_volume_error_pct = ComputeDamageErrorStats(seen_volume_pct);
   r.hidden_bound_ratio = ComputeDamageErrorStats(bound_ratio);
   r.volume_upper_ratio = ComputeDamageErrorStats(volume_ratio);
+  r.hidden_depth_estimate_error_mm = ComputeDamageErrorStats(hidden_depth_est_mm);
+  r.bounded_volume_estimate_error_pct = ComputeDamageErrorStats(bounded_volume_est_pct);
   r.volume_error_pct = ComputeDamageErrorStats(volume_pct);
   if (r.detected > 0) {
     r.depth_within_2sigma = double(within) / r.detected;
@@ -435,13 +442,15 @@ std::string SimDamageEvaluation::Report() const {
       "potholes scored: {} observations of {} potholes; recall {:.3f} ({}/{}); in view but below the sigma_Z rule: {}\n"
       "pothole detections {}: false {}, on unscored damage {}; precision {:.3f}\n"
       "obstacle pixels reported as damage: {} detections\n"
-      "max depth error: {}; within 2 sigma_Z {:.1f} % (mean sigma_Z {:.1f} mm)\n"
-      "max depth error against the depth visible in the frame: {}; floor hidden (> 10 mm) in {} matches\n"
-      "area error: {}\nvolume error: {}\nvolume error against the volume visible in the frame: {}\n"
+      "max depth error (estimate): {}; within 2 sigma_Z {:.1f} % (mean sigma_Z {:.1f} mm)\n"
+      "seen max depth error against the depth visible in the frame: {}; floor hidden (> 10 mm) in {} matches\n"
+      "area error: {}\nvolume error (estimate): {}\nseen volume error against the volume visible in the frame: {}\n"
       "floor seen (stage) in {} matches: max depth error {}\n"
-      "floor hidden (stage) in {} matches: true depth in [measured - 2 sigma_Z, bound] {}/{}; bound / true depth {}\n"
+      "floor hidden (stage) in {} matches: true depth in [seen - 2 sigma_Z, bound] {}/{}; bound / true depth {}; "
+      "estimate error {}\n"
       "volume seen (stage: no upper bound) in {} matches: volume error {}\n"
-      "volume bounded (stage) in {} matches: true volume in [measured - 2 sigma_Z area, upper] {}/{}; upper / true {}\n"
+      "volume bounded (stage) in {} matches: true volume in [seen - 2 sigma_Z area, upper] {}/{}; upper / true {}; "
+      "estimate error {}\n"
       "hidden flag vs truth (floor hidden > 10 mm): agrees in {}/{} matches, flagged hidden but seen {}, flagged "
       "seen but hidden {}; pothole detections flagged hidden {}/{}\n"
       "severity (ASTM vs truth) agreement {:.1f} %\n"
@@ -455,8 +464,10 @@ std::string SimDamageEvaluation::Report() const {
       stats(volume_error_pct, " %"), stats(visible_volume_error_pct, " %"), seen_depth_error_mm.n,
       stats(seen_depth_error_mm, " mm"), hidden_matches, hidden_depth_contained, hidden_matches,
       fmt::format("median {:.2f}, max {:.2f}", hidden_bound_ratio.median_abs, hidden_bound_ratio.max_abs),
-      seen_volume_error_pct.n, stats(seen_volume_error_pct, " %"), volume_bounded_matches, hidden_volume_contained,
-      volume_bounded_matches, fmt::format("median {:.2f}, max {:.2f}", volume_upper_ratio.median_abs, volume_upper_ratio.max_abs), flag_agreements, detected,
+      stats(hidden_depth_estimate_error_mm, " mm"), seen_volume_error_pct.n, stats(seen_volume_error_pct, " %"),
+      volume_bounded_matches, hidden_volume_contained, volume_bounded_matches,
+      fmt::format("median {:.2f}, max {:.2f}", volume_upper_ratio.median_abs, volume_upper_ratio.max_abs),
+      stats(bounded_volume_estimate_error_pct, " %"), flag_agreements, detected,
       flagged_hidden_truth_seen, flagged_seen_truth_hidden, hidden_flag_detections, detections, 100 * severity_agreement, road_median_abs_mm, ms_damage_median, ms_damage_max,
       cpu_ms_damage_median, ms_road_median, ms_segment_median, ms_measure_median, ms_cracks_median,
       ms_disparity_median);

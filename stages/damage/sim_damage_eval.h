@@ -54,7 +54,10 @@ struct PotholeObservation {
   /// below the intact road × the pixel's area on the intact road (the stage's own volume model
   /// applied to the truth). Less than truth_volume_m3 where the floor is hidden.
   double truth_visible_volume_m3 = 0;
+  /// The stage's estimates (DamageInstance::max_depth_m, volume_m3: the hidden part completed)
+  /// and what the frame sees (max_depth_seen_m, volume_seen_m3).
   double max_depth_m = kUnknown, area_m2 = kUnknown, volume_m3 = kUnknown, sigma_depth_m = kUnknown;
+  double max_depth_seen_m = kUnknown, volume_seen_m3 = kUnknown;
   SeverityLevel astm = SeverityLevel::kNone;
   /// The stage's line-of-sight verdict on the match (DamageInstance::floor_visible) and its
   /// bounds where it says hidden.
@@ -84,28 +87,30 @@ struct SimDamageEvaluation {
   int ignored_detections = 0;  ///< of those: on unscored truth damage (small potholes, cracks, patches)
   int obstacle_detections = 0; ///< detections of any type with ≥ 50 % of their pixels on an obstacle
   double recall = 0, precision = 0;
-  DamageErrorStats depth_error_mm;     ///< measured − truth max depth, mm
-  DamageErrorStats visible_depth_error_mm;  ///< measured − truth depth visible in the frame, mm
-  DamageErrorStats visible_volume_error_pct;  ///< (measured − visible truth volume) / visible truth volume, %
+  DamageErrorStats depth_error_mm;     ///< estimated − truth max depth, mm (every match)
+  DamageErrorStats visible_depth_error_mm;  ///< seen (max_depth_seen_m) − truth depth visible in the frame, mm
+  DamageErrorStats visible_volume_error_pct;  ///< (seen − visible truth volume) / visible truth volume, %
   int occluded = 0;  ///< matched observations whose visible depth is > 10 mm less than the true depth
   int unconfirmable = 0;  ///< truth potholes in range left unscored: shallower than the σ_Z rule allows
   /// The Done-when errors against the true values, scored only where the stage says it saw
   /// the whole: max depth where floor_visible, volume where no volume_upper_m3 is stated.
   DamageErrorStats seen_depth_error_mm, seen_volume_error_pct;
   /// Where the stage says the floor is hidden: matches, and how many hold the true max depth
-  /// within the stated interval [max_depth_m − 2 σ_Z, max_depth_bound_m].
+  /// within the stated interval [max_depth_seen_m − 2 σ_Z, max_depth_bound_m].
   int hidden_matches = 0, hidden_depth_contained = 0;
   DamageErrorStats hidden_bound_ratio;  ///< max_depth_bound_m / true max depth (how loose the bound is)
+  DamageErrorStats hidden_depth_estimate_error_mm;  ///< there: estimated − true max depth, mm
   /// Where the stage states a volume upper bound: matches, and how many hold the true volume
-  /// within [volume_m3 − 2 σ_Z·area_m2, volume_upper_m3].
+  /// within [volume_seen_m3 − 2 σ_Z·area_m2, volume_upper_m3].
   int volume_bounded_matches = 0, hidden_volume_contained = 0;
   DamageErrorStats volume_upper_ratio;  ///< volume_upper_m3 / true volume
+  DamageErrorStats bounded_volume_estimate_error_pct;  ///< there: (estimated − true) / true volume, %
   /// The flag against the truth (floor hidden by > 10 mm): agreements over the matches, and
   /// the two kinds of disagreement.
   int flag_agreements = 0, flagged_hidden_truth_seen = 0, flagged_seen_truth_hidden = 0;
   int hidden_flag_detections = 0;  ///< pothole detections (as counted in `detections`) flagged hidden
   DamageErrorStats area_error_pct;     ///< (measured − truth) / truth area, %
-  DamageErrorStats volume_error_pct;   ///< (measured − truth) / truth volume, %
+  DamageErrorStats volume_error_pct;   ///< (estimated − truth) / truth volume, % (every match)
   double depth_within_2sigma = 0;  ///< share of matches with |depth error| ≤ 2 σ_Z
   double mean_sigma_depth_mm = 0;  ///< mean σ_Z of the matches, mm
   double severity_agreement = 0;   ///< share of matches whose ASTM level equals the truth severity

@@ -3,6 +3,7 @@
 // focal halved) so the test stays fast. The full 1280×720 preset figures come from
 // SimDamageEval.Benchmark (set ROADSURVEY_SIM_EVAL_DIR to a `roadsurvey simulate` folder).
 #include "stages/damage/sim_damage_eval.h"
+#include "stages/damage/sim_damage_survey.h"
 
 #include "stages/damage/damage_stage.h"
 #include "stages/simulate/simulate.h"
@@ -111,9 +112,9 @@ TEST(SimDamageEval, ObstaclesTruthDisparity) {
 // 0.955 (one fragment of the 0.07 m² pothole beside the kerb it misses), severity 100 %, no
 // obstacle, road model 0.09 mm, area |error| ≤ 11.5 % (bound 10 %). Against what the frame
 // shows (the simulator's surface seen through the truth disparity): depth ≤ 5.5 mm, volume
-// ≤ 9.9 %; against the true max depth and volume ≤ 53 mm and ≤ 69 % (bounds 10 mm, 15 %): at
-// 5-7 m the near rim hides the floor of deep potholes (grazing angle 12-17°), which no single
-// frame measures (docs/stages/damage.md). Before (image-square smoothing and superpixels, the
+// ≤ 9.9 %; the seen values against the true max depth and volume ≤ 53 mm and ≤ 69 % (bounds
+// 10 mm, 15 %): at 5-7 m the near rim hides the floor of deep potholes (grazing angle 12-17°),
+// which no single frame measures; the estimates complete it (below; docs/stages/damage.md). Before (image-square smoothing and superpixels, the
 // evaluator as then): recall 0.741, precision 0.870, area ≤ 68 %.
 TEST(SimDamageEval, CarTruthDisparity) {
   SimDamageEvalOptions o;
@@ -141,8 +142,14 @@ TEST(SimDamageEval, CarTruthDisparity) {
   EXPECT_EQ(r.hidden_volume_contained, r.volume_bounded_matches);
   EXPECT_EQ(r.flagged_seen_truth_hidden, 0);
   EXPECT_GE(r.flag_agreements, 0.85 * r.detected);
-  EXPECT_LE(r.depth_error_mm.max_abs, 60.0);    // all matches, hidden floors included: guard only
-  EXPECT_LE(r.volume_error_pct.max_abs, 75.0);  // all matches, hidden floors included: guard only
+  // The estimates (the hidden part completed, floor_visibility.h), every match: measured 19:50
+  // UTC depth |error| max 35.3 mm (hidden floors +13..+35 mm; seen ones <= 6 mm), volume |error|
+  // median 4.9 %, p95 14.7 %, max 35.2 % (one pothole at 6.2 m whose seen part is short too);
+  // before (the seen depth and volume as the estimate): 53.4 mm, median 19 %, max 69 %.
+  EXPECT_LE(r.depth_error_mm.max_abs, 45.0);         // guard
+  EXPECT_LE(r.volume_error_pct.median_abs, 8.0);
+  EXPECT_LE(r.volume_error_pct.max_abs, 40.0);       // guard
+  EXPECT_LE(r.hidden_depth_estimate_error_mm.max_abs, 45.0);  // guard
   EXPECT_LE(r.area_error_pct.max_abs, 13.0);
   EXPECT_GE(r.severity_agreement, 0.95);
   EXPECT_EQ(r.obstacle_detections, 0);
@@ -166,6 +173,10 @@ TEST(SimDamageEval, CarTruthDisparitySeed2) {
   EXPECT_LE(r.visible_depth_error_mm.max_abs, 10.0);
   EXPECT_LE(r.visible_volume_error_pct.max_abs, 36.0);  // guard
   EXPECT_LE(r.area_error_pct.max_abs, 32.0);            // guard
+  // The volume estimates (floor_visibility.h): measured median |error| 4.8 %, max 33.8 % (the
+  // pothole beside the edge line above, segmented short); before 14.9 % median.
+  EXPECT_LE(r.volume_error_pct.median_abs, 8.0);
+  EXPECT_LE(r.volume_error_pct.max_abs, 40.0);  // guard
   EXPECT_GE(r.severity_agreement, 0.95);
   EXPECT_EQ(r.obstacle_detections, 0);
   EXPECT_LE(r.road_median_abs_mm, 1.0);
@@ -216,14 +227,16 @@ TEST(SimDamageEval, Benchmark) {
   }
   const SimDamageEvaluation r = EvaluateSimulatedDamage(dir, o);
   std::cout << (o.use_truth_disparity ? "[truth disparity] " : "[computed disparity] ") << dir << "\n"
-            << r.Report() << "\n";
+            << r.Report() << SummarisePerPothole(r).Report() << "\n";
   if (std::getenv("ROADSURVEY_SIM_EVAL_VERBOSE"))
     for (const auto& ob : r.observations)
-      std::cout << fmt::format("  {} Z {:.1f} m id {} det {} iou {:.2f} depth {:.1f}/{:.1f} (visible {:.1f}) mm area {:.4f}/{:.4f} "
-                               "vol {:.6f}/{:.6f} (visible {:.6f}) sev {}/{} floor {} (truth {}) bound {:.1f} mm vol<= {:.6f}\n",
+      std::cout << fmt::format("  {} Z {:.1f} m id {} det {} iou {:.2f} depth {:.1f}/{:.1f} (seen {:.1f}, visible {:.1f}) mm area "
+                               "{:.4f}/{:.4f} vol {:.6f}/{:.6f} (seen {:.6f}, visible {:.6f}) sev {}/{} floor {} (truth {}) "
+                               "bound {:.1f} mm vol<= {:.6f}\n",
                                ob.frame, ob.range_m, ob.truth_id, ob.detected, ob.iou, 1000 * ob.max_depth_m,
-                               1000 * ob.truth_max_depth_m, 1000 * ob.truth_visible_depth_m, ob.area_m2, ob.truth_area_m2, ob.volume_m3,
-                               ob.truth_volume_m3, ob.truth_visible_volume_m3, SeverityLevelName(ob.astm), ob.truth_severity,
+                               1000 * ob.truth_max_depth_m, 1000 * ob.max_depth_seen_m, 1000 * ob.truth_visible_depth_m,
+                               ob.area_m2, ob.truth_area_m2, ob.volume_m3, ob.truth_volume_m3, ob.volume_seen_m3,
+                               ob.truth_visible_volume_m3, SeverityLevelName(ob.astm), ob.truth_severity,
                                ob.floor_visible ? "seen" : "hidden", ob.truth_floor_hidden ? "hidden" : "seen",
                                1000 * ob.max_depth_bound_m, ob.volume_upper_m3);
   if (std::getenv("ROADSURVEY_SIM_EVAL_VERBOSE"))

@@ -71,6 +71,8 @@ void DisparityParams::Check() const {
     fail("refine_smooth_window", std::to_string(refine_smooth_window), "refine_smooth_window = 0 or odd, <= 63");
   if (!(refine_smooth_agree_px >= 0))
     fail("refine_smooth_agree_px", Num(refine_smooth_agree_px), "refine_smooth_agree_px >= 0");
+  if (refine_highpass_px < 3 || refine_highpass_px % 2 == 0 || refine_highpass_px > 63)
+    fail("refine_highpass_px", std::to_string(refine_highpass_px), "refine_highpass_px odd, 3 <= refine_highpass_px <= 63");
   if (!(refine_max_coherence > 0 && refine_max_coherence <= 1))
     fail("refine_max_coherence", Num(refine_max_coherence), "0 < refine_max_coherence <= 1");
   if (speckle_window_size < 0) fail("speckle_window_size", std::to_string(speckle_window_size), "speckle_window_size >= 0");
@@ -355,11 +357,10 @@ void MedianValid3x3(cv::Mat* disparity, const cv::Mat& valid) {
 
 namespace {
 
-// img minus its local mean (box of kHighPassBox px), CV_16S.
-void HighPass(const cv::Mat& img, cv::Mat* out) {
-  constexpr int kHighPassBox = 15;
+// img minus its local mean (box of `box` px), CV_16S.
+void HighPass(const cv::Mat& img, int box, cv::Mat* out) {
   thread_local cv::Mat tls_mean;
-  cv::blur(img, tls_mean, cv::Size(kHighPassBox, kHighPassBox), cv::Point(-1, -1), cv::BORDER_REPLICATE);
+  cv::blur(img, tls_mean, cv::Size(box, box), cv::Point(-1, -1), cv::BORDER_REPLICATE);
   cv::subtract(img, tls_mean, *out, cv::noArray(), CV_16S);
 }
 
@@ -570,7 +571,7 @@ void RefineSubpixel(const cv::Mat& ref, const cv::Mat& target, cv::Mat* disparit
   cv::Mat &ref_hp = tls_ref_hp, &target_hp = tls_target_hp;
   thread_local cv::Mat tls_edge;
   cv::Mat& edge = tls_edge;
-  tbb::parallel_invoke([&] { HighPass(ref, &ref_hp); }, [&] { HighPass(target, &target_hp); },
+  tbb::parallel_invoke([&] { HighPass(ref, o.highpass, &ref_hp); }, [&] { HighPass(target, o.highpass, &target_hp); },
                        [&] {
                          if (edges) EdgeDominated(ref, o.window, static_cast<float>(o.max_edge_coherence), &edge);
                        });
@@ -711,6 +712,7 @@ DisparityResult ComputeDisparity(const cv::Mat& left, const cv::Mat& right, cons
   SubpixelRefineOptions refine;
   refine.window = P.refine_window;
   refine.max_edge_coherence = P.refine_max_coherence;
+  refine.highpass = P.refine_highpass_px;
   if (gpt) refine.smooth_window = P.refine_smooth_window, refine.smooth_agree_px = P.refine_smooth_agree_px,
            refine.smooth_max_px = smooth_max_px;
   RefineSubpixel(ref_s, target_s, &sgm.disparity, sgm.valid, refine);

@@ -61,6 +61,12 @@ struct DisparityParams {
   /// camera's pixel grid cut it, an error that does not average out along the edge (±0.5 px waves
   /// along a car's shadow on the obstacles preset). 1 = off.
   double refine_max_coherence = 0.7;
+  /// Box of the local mean the refinement subtracts from both images (odd, >= 3): the views'
+  /// gain and vignetting differ. Next to a strong step (a paint or shadow edge) the subtracted
+  /// mean makes a ramp reaching refine_highpass_px / 2 from the edge, where the match then rests
+  /// on the edge's position in each view's pixel grid (the simulator's aliased edges: up to
+  /// +-0.5 px); a small box keeps the ramp inside the edge band refine_max_coherence handles.
+  int refine_highpass_px = 9;
 
   int gpt_num_disparities = 32;  ///< GPT-SGM residual search range, px (road residual + damage depth)
   double gpt_delta_px = 8;       ///< delta: residual disparity of the road's row minimum; damage down to -delta fits
@@ -119,9 +125,9 @@ DisparityResult ComputeDisparity(const cv::Mat& left_gray8, const cv::Mat& right
 /// Sub-pixel disparity from the intensities instead of SGM's cost curve: winner-takes-all plus an
 /// equiangular fit on aggregated costs pulls towards integers (pixel locking, up to ~0.15 px bias
 /// where the road's residual lies half-way between integers, i.e. wherever the road model is off).
-/// Both images are high-passed (minus a 15x15 local mean: gain and vignetting differ between the
-/// cameras). For each valid pixel n with SGM's integer winner k_n = round(l_n), e_n = ref(u) -
-/// target(u - k_n) and the derivative G_n there (mean of both views' 5-tap differences) give the
+/// Both images are high-passed (minus a local mean, SubpixelRefineOptions::highpass: gain and
+/// vignetting differ between the cameras). For each valid pixel n with SGM's integer winner
+/// k_n = round(l_n), e_n = ref(u) - target(u - k_n) and the derivative G_n there (mean of both views' 5-tap differences) give the
 /// linearised estimate k_n - e_n / G_n (pixels whose step exceeds 1 px are left out); a pixel's
 /// refined value is the average of these over its window x window neighbourhood weighted by
 /// G_n^2 (the window's least-squares shift, 1-D Lucas-Kanade, one Gauss-Newton step from exact
@@ -145,6 +151,9 @@ struct SubpixelRefineOptions {
   /// `ref` (structure-tensor coherence (l1 - l2) / (l1 + l2) above this, sum gx^2 >= 2 sum gy^2)
   /// give no terms to the smooth window and take its value; >= 1 = off.
   double max_edge_coherence = 1.0;
+  /// Box of the local mean subtracted from both images before the least squares (odd, >= 3;
+  /// DisparityParams::refine_highpass_px).
+  int highpass = 9;
 };
 
 /// RefineSubpixel with the larger smooth window and the edge test.

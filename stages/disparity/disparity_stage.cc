@@ -97,6 +97,11 @@ const OptionTable<DisparityParams>& ParamsTable() {
                "them (1 = off)")
           .Min(0)
           .Max(1)
+          .Add("refine_highpass_px", &DisparityParams::refine_highpass_px,
+               "box of the local mean subtracted from both images before the refinement (odd; the views' gain "
+               "differs; a small box keeps the ramp it makes beside paint and shadow edges near the edge)", "px")
+          .Min(3)
+          .Max(63)
           .Add("gpt_num_disparities", &DisparityParams::gpt_num_disparities,
                "GPT-SGM residual search range (road residual + damage depth)", "px")
           .Min(1)

@@ -149,6 +149,7 @@ RoadScene::RoadScene(const SimulationOptions& o, double s_view_min, double s_vie
   for (double scale : {0.0035, 0.009, 0.035, 0.3, 4.0}) {
     const double a = rng.Uniform(0, 2 * kPi);
     octaves_.push_back({scale, std::cos(a), std::sin(a), rng.Uniform(0, 1024), rng.Uniform(0, 1024)});
+    octave_inv_scale_.push_back(1.0 / scale);
   }
   const double az = o.sun_azimuth_deg * kDeg, el = o.sun_elevation_deg * kDeg;
   lighting_.sun_world = Eigen::Vector3d(std::sin(az) * std::cos(el), std::cos(az) * std::cos(el), std::sin(el));
@@ -238,22 +239,100 @@ int RoadScene::LabelAt(double x, double y) const {
   return d->mask[static_cast<size_t>(j) * d->ns + i] ? d->id : 0;
 }
 
-float RoadScene::BaseAlbedo(double s, double l, double inv_fp) const {
-  // Octaves finer than ~1.75 px fade to their mean: a cheap, deterministic
-  // prefilter, so left and right views of a point agree and nothing aliases.
-  auto w = [inv_fp](double scale) { return Clamp01(scale * inv_fp - 0.75); };
+PixelDifferentials PixelDifferentials::Square(const Eigen::Vector3d& d, double pixel_angle_rad) {
+  Eigen::Vector3d right = d.cross(Eigen::Vector3d::UnitZ());
+  const double n = right.norm();
+  right = n > 1e-9 ? Eigen::Vector3d(right / n) : Eigen::Vector3d::UnitX().cross(d).cross(d).normalized();
+  PixelDifferentials px;
+  px.dd_du = pixel_angle_rad * right;
+  px.dd_dv = pixel_angle_rad * d.cross(right);
+  return px;
+}
+
+RoadScene::Footprint RoadScene::FootprintOf(double cos_i, double su, double lu, double sv, double lv) {
+  // The pixel maps to the parallelogram J [-1/2, 1/2]^2, J = [su sv; lu lv] / cos_i. As texture hardware
+  // does, its long axis is the longer column (from a forward camera: the image's vertical direction on the
+  // road) and its width across that axis |det J| / long side (exact for the parallelogram). All of it from
+  // one square root and one division, independent of each other: the renderer's per-pixel time is mostly
+  // such latency chains.
+  const double ru = su * su + lu * lu, rv = sv * sv + lv * lv;
+  const bool v_long = rv >= ru;
+  const double l2 = v_long ? rv : ru;  // (cos_i * long side)^2
+  // Guard: a footprint seen exactly edge-on has no width.
+  const double det = std::max(std::abs(su * lv - sv * lu), 1e-6 * l2 + 1e-30);  // cos_i^2 |det J|
+  const double lc = std::sqrt(l2);
+  const double q = 1.0 / (l2 * det * cos_i);
+  const double inv_lc = lc * det * cos_i * q, cc = cos_i * cos_i;
+  Footprint fp;
+  fp.major_m = lc * det * l2 * q;  // lc / cos_i
+  fp.inv_major = cos_i * inv_lc;
+  fp.inv_minor = cc * l2 * lc * q;  // cos_i lc / det
+  fp.anisotropic = l2 > kAnisoTolerance * det;  // major / minor = l2 / det
+  if (fp.anisotropic) {
+    fp.axis_s = (v_long ? sv : su) * inv_lc;
+    fp.axis_l = (v_long ? lv : lu) * inv_lc;
+  }
+  return fp;
+}
+
+float RoadScene::BaseAlbedo(double s, double l, const Footprint& fp) const {
+  // Most pixels of nadir views are isotropic: one sample per octave, compiled without the sampling loop.
+  return fp.anisotropic ? FilteredAlbedo<true>(s, l, fp) : FilteredAlbedo<false>(s, l, fp);
+}
+
+template <bool kAniso>
+float RoadScene::FilteredAlbedo(double s, double l, const Footprint& fp) const {
+  // A pixel records the mean radiance over its footprint, a box long along the
+  // view and narrow across it at grazing angles. Per octave, n point samples
+  // spread along the long axis, each standing for a box of major / n by minor,
+  // and the octave fades by that box's longer side as the isotropic prefilter
+  // did: full contrast for texels of >= 1.75 box sides, none below 1.33 (a
+  // cheap, deterministic stand-in for mip levels; nothing aliases, and left and
+  // right views of a point agree as their footprints do). Samples are only
+  // taken as densely as the octave needs (spacing max(minor, texel / 1.75)),
+  // so coarse octaves stay at one sample.
   const NoiseTable& t = *noise_;
+  // Mean of f(octave value) over the octave's samples; *w: the contrast kept.
+  auto filtered = [&](int octave, double* w, auto&& f) -> double {
+    const Octave& oc = octaves_[octave];
+    int n = 1;
+    double inv_box = fp.inv_major;  // 1 / the longer side of the box one sample stands for
+    if constexpr (kAniso) {
+      // Samples needed: major / spacing, spacing = max(minor, texel / 1.75) (closer adds nothing).
+      const double need = fp.major_m * std::min(fp.inv_minor, 1.75 * octave_inv_scale_[octave]);
+      if (need > kAnisoTolerance) {
+        n = static_cast<int>(std::min<double>(kMaxAnisotropy, std::ceil(need - (kAnisoTolerance - 1))));
+        inv_box = std::min(fp.inv_minor, n * fp.inv_major);
+      }
+    }
+    *w = Clamp01(oc.scale_m * inv_box - 0.75);
+    if (*w == 0) return 0.0;
+    if (!kAniso || n == 1) return f(oc.At(t, s, l));
+    // Texel coordinates step linearly along the axis (Octave::At is affine in (s, l)).
+    const double inv_n = 1.0 / n, step = fp.major_m * inv_n;
+    const double dx = step * (oc.cu * fp.axis_s - oc.su * fp.axis_l);
+    const double dy = step * (oc.su * fp.axis_s + oc.cu * fp.axis_l);
+    const double k0 = 0.5 - 0.5 * n;  // x0 / step
+    double tx = oc.cu * s - oc.su * l + oc.ox + k0 * dx, ty = oc.su * s + oc.cu * l + oc.oy + k0 * dy;
+    double sum = 0;
+    for (int k = 0; k < n; ++k, tx += dx, ty += dy) sum += f(t.Sample(tx, ty));
+    return sum * inv_n;
+  };
+  // Octave k about its mean 0.5, filtered.
+  auto centred = [&](int k) {
+    double w;
+    const double mean = filtered(k, &w, [](double v) { return v - 0.5; });
+    return w * mean;
+  };
   const double a = std::abs(l), hw = road_.half_width();
-  const double stain = octaves_[3].At(t, s, l) - 0.5;
-  const double w0 = w(octaves_[0].scale_m), w1 = w(octaves_[1].scale_m), w2 = w(octaves_[2].scale_m);
-  const double fine = w0 > 0 ? w0 * (octaves_[0].At(t, s, l) - 0.5) : 0.0;
-  const double mid = w2 > 0 ? w2 * (octaves_[2].At(t, s, l) - 0.5) : 0.0;
+  const double stain = centred(3), fine = centred(0), mid = centred(2);
   if (a <= hw) {
-    const double big = octaves_[4].At(t, s, l) - 0.5;
+    const double big = centred(4);
     constexpr double kStoneMean = 0.227;  // mean of the stone term over the noise table (checked in a test)
-    const double stone = w1 > 0 ? SmoothStep(0.58, 0.74, octaves_[1].At(t, s, l)) : 0.0;
-    double alb = 0.16 + 0.07 * big + 0.05 * stain + 0.22 * (w1 * stone + (1 - w1) * kStoneMean) + 0.06 * mid +
-                 0.12 * fine;
+    double w;
+    const double stones = filtered(1, &w, [](double v) { return SmoothStep(0.58, 0.74, v); });
+    const double stone = w * stones + (1 - w) * kStoneMean;
+    double alb = 0.16 + 0.07 * big + 0.05 * stain + 0.22 * stone + 0.06 * mid + 0.12 * fine;
     if (markings_) {
       const bool centre = a < 0.06 && std::fmod(std::abs(s), dash_ + gap_) < dash_;
       const bool edge = std::abs(a - (hw - 0.3)) < 0.075;
@@ -262,7 +341,7 @@ float RoadScene::BaseAlbedo(double s, double l, double inv_fp) const {
     return static_cast<float>(alb);
   }
   if (a <= hw + road_.kerb_width()) return static_cast<float>(0.42 + 0.05 * stain + 0.08 * mid + 0.10 * fine);
-  const double blades = w1 > 0 ? w1 * (octaves_[1].At(t, s, l) - 0.5) : 0.0;
+  const double blades = centred(1);
   return static_cast<float>(0.12 + 0.05 * stain + 0.10 * mid + 0.12 * blades + 0.06 * fine);
 }
 
@@ -400,7 +479,7 @@ double RayHit::StartOnPlane(const Eigen::Vector3d& o, const Eigen::Vector3d& d) 
   return t > 0 ? t : std::numeric_limits<double>::quiet_NaN();
 }
 
-RayHit RoadScene::Cast(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double pixel_angle_rad,
+RayHit RoadScene::Cast(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const PixelDifferentials& pixel,
                        double z_start, double t_guess) const {
   RayHit out;
   constexpr double kMaxRange = 300.0;
@@ -491,8 +570,14 @@ RayHit RoadScene::Cast(const Eigen::Vector3d& o, const Eigen::Vector3d& d, doubl
   const double gs = S.dz_ds * inv_stretch;
   const Eigen::Vector3d n_raw(-(gs * ch - S.dz_dl * sh), -(gs * sh + S.dz_dl * ch), 1.0);
   const Eigen::Vector3d n = n_raw * (1.0 / std::sqrt(n_raw.squaredNorm()));
-  const double inv_footprint = std::max(0.2, -n.dot(d)) / (t * pixel_angle_rad);
-  double alb = BaseAlbedo(s, l, inv_footprint);
+  // Footprint on the tangent plane from the ray differentials, dp/du = t (dd/du - d (n.dd/du) / (n.d)), here
+  // times cos_i = -n.d (FootprintOf divides once for all).
+  const double cos_i = std::max(1e-3, -n.dot(d));
+  const Eigen::Vector3d pu = t * (cos_i * pixel.dd_du + n.dot(pixel.dd_du) * d);
+  const Eigen::Vector3d pv = t * (cos_i * pixel.dd_dv + n.dot(pixel.dd_dv) * d);
+  const Footprint fp = FootprintOf(cos_i, (pu.x() * ch + pu.y() * sh) * inv_stretch, pu.y() * ch - pu.x() * sh,
+                                   (pv.x() * ch + pv.y() * sh) * inv_stretch, pv.y() * ch - pv.x() * sh);
+  double alb = BaseAlbedo(s, l, fp);
   if (S.damage) {
     const Damage& dm = *S.damage;
     const int i0 = std::clamp(static_cast<int>(std::floor(S.fi)), 0, dm.ns - 2);

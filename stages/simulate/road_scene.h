@@ -108,6 +108,17 @@ struct RayHit {
   double StartOnPlane(const Eigen::Vector3d& o, const Eigen::Vector3d& d) const;
 };
 
+/// How a pixel's ray direction changes per pixel step along the image columns
+/// (u) and rows (v), the ray differentials: the pixel's footprint on the
+/// surface it hits follows from them. Components along the ray do not matter.
+struct PixelDifferentials {
+  Eigen::Vector3d dd_du = Eigen::Vector3d::Zero();
+  Eigen::Vector3d dd_dv = Eigen::Vector3d::Zero();
+  /// A square pixel of angular size pixel_angle_rad, of a camera without roll
+  /// looking along the unit direction d (image rows horizontal).
+  static PixelDifferentials Square(const Eigen::Vector3d& d, double pixel_angle_rad);
+};
+
 /// Parameters that describe the rendered appearance.
 struct Lighting {
   Eigen::Vector3d sun_world;  ///< unit vector towards the sun
@@ -135,14 +146,22 @@ class RoadScene {
   int LabelAt(double x, double y) const;
 
   /// Casts a ray (origin o, unit direction d) against road and obstacles and
-  /// shades the hit. pixel_angle_rad: angular size of a pixel, for texture filtering.
-  /// z_start: surface height to start the search at (NaN: the smooth road under o).
-  /// t_guess: a ray parameter near the hit (RayHit::StartOnPlane of a neighbouring
-  /// pixel), used when it lies on or above the surface; the hit found is the same
-  /// surface point to within the solver tolerance (10 um in height).
-  RayHit Cast(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double pixel_angle_rad,
+  /// shades the hit. pixel: the pixel's ray differentials; the road texture is
+  /// filtered over the pixel's footprint (long along the view at grazing angles,
+  /// see BaseAlbedo). z_start: surface height to start the search at (NaN: the
+  /// smooth road under o). t_guess: a ray parameter near the hit
+  /// (RayHit::StartOnPlane of a neighbouring pixel), used when it lies on or
+  /// above the surface; the hit found is the same surface point to within the
+  /// solver tolerance (10 um in height).
+  RayHit Cast(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const PixelDifferentials& pixel,
               double z_start = std::numeric_limits<double>::quiet_NaN(),
               double t_guess = std::numeric_limits<double>::quiet_NaN()) const;
+  /// The same for a square pixel of angular size pixel_angle_rad of a camera without roll.
+  RayHit Cast(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double pixel_angle_rad,
+              double z_start = std::numeric_limits<double>::quiet_NaN(),
+              double t_guess = std::numeric_limits<double>::quiet_NaN()) const {
+    return Cast(o, d, PixelDifferentials::Square(d, pixel_angle_rad), z_start, t_guess);
+  }
 
  private:
   struct SurfaceSample {
@@ -157,8 +176,29 @@ class RoadScene {
   bool MarchToSurface(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double max_range, double* t, double* s,
                       double* l, double* ch, double* sh, SurfaceSample* S) const;
   const Damage* DamageAt(double s, double l) const;
-  /// Albedo of the intact road at (s, l); inv_footprint: 1 / pixel footprint on the ground (1/m), for filtering.
-  float BaseAlbedo(double s, double l, double inv_footprint) const;
+  /// Texture samples per octave along a footprint's long axis, at most: the
+  /// ratio of the footprint's sides reaches 8 at 12 m from a car camera 1.5 m
+  /// up, beyond the damage stage's analysed range (7.7 m); farther, octaves
+  /// fade by the longer per-sample box instead of costing more samples.
+  static constexpr int kMaxAnisotropy = 8;
+  /// A second sample is taken only when the footprint is longer than this
+  /// times the spacing an octave needs: nadir views (sides within a few %)
+  /// keep one sample per octave; the fade accounts for the exact length.
+  static constexpr double kAnisoTolerance = 1.2;
+  /// A pixel's footprint on the road in road coordinates: a box major_m long
+  /// along the unit axis (axis_s, axis_l) and 1 / inv_minor wide across it.
+  struct Footprint {
+    double major_m = 0, inv_major = 0, inv_minor = 0;
+    bool anisotropic = false;       // major / minor > kAnisoTolerance
+    double axis_s = 1, axis_l = 0;  // set only when anisotropic
+  };
+  /// Footprint of a pixel whose hit moves by (su, lu) / cos_i and (sv, lv) / cos_i in (s, l) per pixel step
+  /// along u and v; cos_i: cosine of the incidence angle.
+  static Footprint FootprintOf(double cos_i, double su, double lu, double sv, double lv);
+  /// Albedo of the intact road at (s, l), each texture octave filtered over the footprint.
+  float BaseAlbedo(double s, double l, const Footprint& fp) const;
+  template <bool kAniso>
+  float FilteredAlbedo(double s, double l, const Footprint& fp) const;
   bool ObstacleHit(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double t_max, double* t,
                    Eigen::Vector3d* n, const Obstacle** which) const;
 
@@ -172,6 +212,7 @@ class RoadScene {
   double sun_gain_ = 1;  // (1 - ambient) / sun z: flat road under the sun gets irradiance 1
   std::unique_ptr<NoiseTable> noise_;
   std::vector<Octave> octaves_;
+  std::vector<double> octave_inv_scale_;  // 1 / octaves_[k].scale_m: the texture filter needs no division
   // Damage lookup: grid of kGridCell cells in (s, l); cell c lists damages_
   // indices grid_items_[grid_start_[c] .. grid_start_[c + 1]).
   static constexpr double kGridCell = 0.25;

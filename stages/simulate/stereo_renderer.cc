@@ -62,7 +62,6 @@ StereoRenderer::Camera StereoRenderer::MakeCamera(const CameraIntrinsics& K, boo
   c.width = K.width;
   c.height = K.height;
   c.gain = gain;
-  c.pixel_angle = 1.0 / K.fx;
   const size_t n = static_cast<size_t>(K.width) * K.height;
   c.rays.resize(n);
   c.vignette.resize(n);
@@ -76,17 +75,31 @@ StereoRenderer::Camera StereoRenderer::MakeCamera(const CameraIntrinsics& K, boo
                         cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 30, 1e-10));
   }
   const double r_max2 = (K.cx * K.cx + K.cy * K.cy) / (K.fx * K.fx);
-  for (size_t i = 0; i < n; ++i) {
-    double x, y;
-    if (distorted) {
-      x = und[i].x;
-      y = und[i].y;
-    } else {
-      x = (px[i].x - K.cx) / K.fx;
-      y = (px[i].y - K.cy) / K.fy;
+  // Normalised image coordinates (x, y) of each pixel: the ray is (x, y, 1) / |(x, y, 1)|.
+  auto xy = [&](size_t i) {
+    if (distorted) return Eigen::Vector2d(und[i].x, und[i].y);
+    return Eigen::Vector2d((px[i].x - K.cx) / K.fx, (px[i].y - K.cy) / K.fy);
+  };
+  c.ray_diff.resize(n);
+  for (int v = 0; v < K.height; ++v) {
+    for (int u = 0; u < K.width; ++u) {
+      const size_t i = static_cast<size_t>(v) * K.width + u;
+      const Eigen::Vector2d p = xy(i);
+      const double x = p.x(), y = p.y();
+      c.rays[i] = Eigen::Vector3f(x, y, 1).normalized();
+      c.vignette[i] = static_cast<float>(1.0 - o_.vignetting * std::min(1.0, (x * x + y * y) / r_max2));
+      // Ray differentials: d(x, y)/du and /dv by central differences (one-sided at the border; exact for the
+      // pinhole, the undistortion's Jacobian for the raw camera), times 1 / |(x, y, 1)|: the change of the
+      // unit ray up to its component along itself, which the footprint does not depend on.
+      const int u0 = std::max(u - 1, 0), u1 = std::min(u + 1, K.width - 1);
+      const int v0 = std::max(v - 1, 0), v1 = std::min(v + 1, K.height - 1);
+      const size_t row = static_cast<size_t>(v) * K.width;
+      const Eigen::Vector2d du = (xy(row + u1) - xy(row + u0)) / (u1 - u0);
+      const Eigen::Vector2d dv =
+          (xy(static_cast<size_t>(v1) * K.width + u) - xy(static_cast<size_t>(v0) * K.width + u)) / (v1 - v0);
+      const double k = 1.0 / std::sqrt(x * x + y * y + 1);
+      c.ray_diff[i] = Eigen::Vector4f(du.x() * k, du.y() * k, dv.x() * k, dv.y() * k);
     }
-    c.rays[i] = Eigen::Vector3f(x, y, 1).normalized();
-    c.vignette[i] = static_cast<float>(1.0 - o_.vignetting * std::min(1.0, (x * x + y * y) / r_max2));
   }
   return c;
 }
@@ -125,11 +138,14 @@ void StereoRenderer::Render(const std::vector<Eigen::Isometry3d>& T_world_left, 
       for (int u = 0; u < c.width; ++u) {
         const size_t i = static_cast<size_t>(v) * c.width + u;
         const Eigen::Vector3d ray_cam = c.rays[i].cast<double>();
+        const Eigen::Vector4d j = c.ray_diff[i].cast<double>();
         float radiance = 0;
         for (size_t k = 0; k < T_world_cam.size(); ++k) {
-          const Eigen::Vector3d d = T_world_cam[k].linear() * ray_cam;
+          const Eigen::Matrix3d& R = T_world_cam[k].linear();
+          const Eigen::Vector3d d = R * ray_cam;
           const Eigen::Vector3d& o = T_world_cam[k].translation();
-          const RayHit h = scene_.Cast(o, d, c.pixel_angle, z_start[k], prev[k].StartOnPlane(o, d));
+          const PixelDifferentials px{R.col(0) * j[0] + R.col(1) * j[1], R.col(0) * j[2] + R.col(1) * j[3]};
+          const RayHit h = scene_.Cast(o, d, px, z_start[k], prev[k].StartOnPlane(o, d));
           if (h.road) prev[k] = h;
           radiance += h.hit ? h.radiance : 0.9f - 0.2f * static_cast<float>(d.z());  // sky
           if (k == mid && with_truth) {
