@@ -227,7 +227,7 @@ TEST(SimDamageEval, Benchmark) {
   }
   const SimDamageEvaluation r = EvaluateSimulatedDamage(dir, o);
   std::cout << (o.use_truth_disparity ? "[truth disparity] " : "[computed disparity] ") << dir << "\n"
-            << r.Report() << SummarisePerPothole(r).Report() << "\n";
+            << r.Report() << "\n" << SummarisePerPothole(r).Report() << "\n";
   if (std::getenv("ROADSURVEY_SIM_EVAL_VERBOSE"))
     for (const auto& ob : r.observations)
       std::cout << fmt::format("  {} Z {:.1f} m id {} det {} iou {:.2f} depth {:.1f}/{:.1f} (seen {:.1f}, visible {:.1f}) mm area "
