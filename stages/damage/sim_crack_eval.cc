@@ -49,9 +49,7 @@ std::map<int, TruthCrack> ReadTruthCracks(const fs::path& dir, const sim::RoadGe
   std::map<int, TruthCrack> out;
   for (const auto& f : fc.features) {
     const auto& p = f.properties;
-    if (!p.is_object() || !p.contains("id") || !p["id"].is_number_integer() || !p.contains("type"))
-      throw InputError(InputLocation::File(path.string()), "damage feature without integer id and type");
-    const std::string type = p["type"].get<std::string>();
+    const auto [id, type] = ReadTruthFeatureKey(p, path);
     const bool linear = type == "crack_longitudinal" || type == "crack_transverse";
     if (!linear && type != "alligator_cracking") continue;
     TruthCrack c;
@@ -61,7 +59,7 @@ std::map<int, TruthCrack> ReadTruthCracks(const fs::path& dir, const sim::RoadGe
       const auto* line = std::get_if<geojson::LineString>(&f.geometry);
       if (!line || !p.contains("length_m") || !p["length_m"].is_number() || !(c.width_m > 0))
         throw InputError(InputLocation::File(path.string()),
-                         fmt::format("crack {} needs a LineString, width_m and length_m", p["id"].get<int>()));
+                         fmt::format("crack {} needs a LineString, width_m and length_m", id));
       c.length_m = p["length_m"].get<double>();
       for (const auto& q : line->positions) {
         double x, y, z, s, l;
@@ -70,7 +68,7 @@ std::map<int, TruthCrack> ReadTruthCracks(const fs::path& dir, const sim::RoadGe
         c.centreline_world.emplace_back(x, y, road.IntactZ(s, l));
       }
     }
-    out[p["id"].get<int>()] = std::move(c);
+    out[id] = std::move(c);
   }
   return out;
 }

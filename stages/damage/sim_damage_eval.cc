@@ -46,14 +46,13 @@ std::map<int, TruthDamage> ReadTruthDamages(const fs::path& path) {
   std::map<int, TruthDamage> out;
   for (const auto& f : fc.features) {
     const auto& p = f.properties;
-    if (!p.is_object() || !p.contains("id") || !p["id"].is_number_integer() || !p.contains("type"))
-      throw InputError(InputLocation::File(path.string()), "damage feature without integer id and type");
+    const TruthFeatureKey key = ReadTruthFeatureKey(p, path);
     TruthDamage d;
-    d.type = p["type"].get<std::string>();
+    d.type = key.type;
     d.area_m2 = Num(p, "area_m2"), d.max_depth_m = Num(p, "max_depth_m"), d.volume_m3 = Num(p, "volume_m3");
     d.mean_diameter_m = Num(p, "mean_diameter_m");
     d.severity = p.contains("severity") && p["severity"].is_string() ? p["severity"].get<std::string>() : "";
-    out[p["id"].get<int>()] = d;
+    out[key.id] = d;
   }
   return out;
 }

@@ -66,4 +66,11 @@ cv::Mat ReadSimRightImage(const SimSurveyTruth& s, size_t k) {
   return ReadPng(s.dir / "right" / (s.frames.at(k) + ".png"), CV_8UC1);
 }
 
+TruthFeatureKey ReadTruthFeatureKey(const nlohmann::json& p, const std::filesystem::path& path) {
+  if (!p.is_object() || !p.contains("id") || !p["id"].is_number_integer() || !p.contains("type") ||
+      !p["type"].is_string())
+    throw InputError(InputLocation::File(path.string()), "damage feature without integer id and type");
+  return {p["id"].get<int>(), p["type"].get<std::string>()};
+}
+
 }  // namespace rs

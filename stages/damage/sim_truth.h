@@ -37,4 +37,12 @@ SimSurveyTruth ReadSimSurveyTruth(const std::filesystem::path& dir);
 SimFrameTruth ReadSimFrame(const SimSurveyTruth& survey, size_t k);
 cv::Mat ReadSimRightImage(const SimSurveyTruth& survey, size_t k);
 
+/// A truth/damages.geojson feature's integer "id" and string "type" (both evaluators key on them);
+/// throws InputError naming `path` when either is missing.
+struct TruthFeatureKey {
+  int id = 0;
+  std::string type;
+};
+TruthFeatureKey ReadTruthFeatureKey(const nlohmann::json& properties, const std::filesystem::path& path);
+
 }  // namespace rs
