@@ -187,8 +187,8 @@ const OptionTable<MeasureOptions>& MeasureOptions::Table() {
       .Above(0.5).Below(1)
       .Add("depth_percentile", &O::depth_percentile, "percentile of depth reported as max depth").Above(0.5).Max(1)
       .Add("floor_clearance_px", &O::floor_clearance_px,
-           "the floor counts as seen when its deepest seen part stands this many image rows (Z/f each) above the "
-           "near rim's shadow line", "px")
+           "the floor counts as seen when its deepest seen part reaches this many image rows (Z/f each) farther "
+           "from the near rim's shadow line than where it begins", "px")
       .Min(0)
       .Add("hidden_wall_slope", &O::hidden_wall_slope,
            "hidden floor: walls in the near rim's shadow assumed no steeper on average (bounds the hidden depth)")

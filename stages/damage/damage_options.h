@@ -134,8 +134,8 @@ struct MeasureOptions {
   double spike_quantile = 0.999;
   double depth_percentile = 0.99;       ///< max depth = this percentile of per-pixel depth (rejects single-pixel spikes)
   /// Line of sight over the near rim (floor_visibility.h): the floor counts as seen when the
-  /// deepest seen surface stands this many image rows of clearance (Z/f each) above the rim's
-  /// shadow line; else it may be hidden and the depth is a lower bound.
+  /// deepest seen surface reaches this many image rows of clearance (Z/f each) farther from the
+  /// rim's shadow line than where it begins; else it may be hidden and the depth is a lower bound.
   double floor_clearance_px = 8.0;
   /// Hidden floor: walls in the rim's shadow assumed no steeper on average (depth per metre)
   /// than this; bounds the hidden depth (vertical walls would leave it unbounded).

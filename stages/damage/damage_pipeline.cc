@@ -126,19 +126,14 @@ FrameDamage DetectDamage(const cv::Mat& input_disparity_px, const cv::Mat& left_
   // the frame's σ). Pixels next to strong image steps (paint edges) form their own noise class,
   // estimated from those pixels alone: where the matcher fails there (0.3-1 px) they cannot seed
   // a depression, where it does not (the truth disparity) nothing changes.
-  cv::Mat noise, road_noise;
+  cv::Mat noise, road_noise, reliable;
   if (o.segment.noise_cell_px > 0) {
-    cv::Mat reliable = relief.valid;
+    reliable = relief.valid;
     if (!edges.empty()) reliable = relief.valid & (edges == 0);
     // Road samples beyond 40 frame σ above the road are structure (the smoothed fringe of an
     // obstacle, the model bent beside it), not matching noise; at paint edges they are the noise.
     noise = LocalReliefNoise(relief.value, reliable, scale.road_level, o.segment.noise_cell_px, scale.sigma, 40.0);
     road_noise = noise;  // shared until the edge class changes `noise`
-    // The pothole rule's noise: beside a kerb the road rises where the model does not follow,
-    // which is not matching noise (TwoSidedReliefNoise). The seeds keep the one-sided noise.
-    if (o.measure.pothole_min_noise_sigma > 0 && o.measure.pothole_noise_two_sided)
-      road_noise = TwoSidedReliefNoise(noise, relief.value, reliable, scale.road_level, o.segment.noise_cell_px,
-                                       scale.sigma, 40.0);
     if (!edges.empty() && cv::countNonZero(edges) > 0) {
       const cv::Mat edge_noise =
           LocalReliefNoise(relief.value, relief.valid & edges, scale.road_level, o.segment.noise_cell_px, scale.sigma);
@@ -176,6 +171,13 @@ FrameDamage DetectDamage(const cv::Mat& input_disparity_px, const cv::Mat& left_
   ExtendToRim(f.labels, f.relief, o.segment.rim_depth_m, o.segment.rim_depth_fraction,
               o.segment.rim_ring_mean ? o.road.relief_smooth_px : 0, relief.row_elongation,
               evaluated.depth_below_mm);
+  // The pothole rule's noise: beside a kerb the road rises where the model does not follow,
+  // which is not matching noise (TwoSidedReliefNoise); on each depression its spread below
+  // leaves that depression out (its own walls are not the road's noise). The seeds keep the
+  // one-sided noise.
+  if (!road_noise.empty() && o.measure.pothole_min_noise_sigma > 0 && o.measure.pothole_noise_two_sided)
+    road_noise = TwoSidedReliefNoise(road_noise, relief.value, reliable, scale.road_level, o.segment.noise_cell_px,
+                                     scale.sigma, 40.0, 2.0, f.labels);
   f.ms_segment = MsSince(t0);
 
   t0 = std::chrono::steady_clock::now();

@@ -22,6 +22,7 @@ struct RayPoint {
 struct Strip {
   double x_rim = 1e300, tan_rim = 0;
   double shadow_edge_depth_m = 0;  ///< deepest seen depth of the rays grazing the rim (on the shadow line)
+  double deep_start_m = 1e300;     ///< clearance where the strip first sees the deepest part
   std::vector<std::pair<double, double>> seen;  ///< (along-view position, depth) of the seen points
 };
 
@@ -164,10 +165,18 @@ FloorVisibility AnalyseFloorVisibility(const cv::Mat& labels, int id, const cv::
   };
   const double margin_m = o.floor_clearance_px * z_mean / g.f_px;
   // The rays grazing the rim: the first two rows behind it (the relief is smoothed over about
-  // three rows along the view at a car's range).
+  // three rows along the view at a car's range), or behind where the deepest part begins.
   const double edge_m = 2 * z_mean / g.f_px;
-  // The deepest seen part (within 10 % of the max depth or the height noise): the floor counts
-  // as seen when some of it stands clear of the shadow line by the margin.
+  // The deepest seen part (within 10 % of the max depth or the height noise). The floor counts
+  // as seen when that part reaches the margin farther from the shadow line than where it
+  // begins: a floor is seen over a stretch, while the deepest seen points of a hidden floor are
+  // where the grazing rays meet the far wall, one row on the shadow line. With exact disparity
+  // the deepest part begins on the shadow line (the walls are steeper than the rays), so this
+  // is the clearance itself; a disparity smoothed along the view moves that row a few rows off
+  // the rim and spreads it (car, our disparity: the deepest part of hidden floors began 3
+  // rows behind the rim and reached 8-11 rows, as far as seen floors do), which measuring from
+  // where it begins cancels. Where it begins: the median over the strips of each strip's
+  // nearest deep point (one strip's noise does not move it).
   const double deep_m = max_depth_m - std::max(0.1 * max_depth_m, sigma_height_m);
   double best_clearance = -1e300, tan_sum = 0;
   int tan_n = 0;
@@ -177,15 +186,29 @@ FloorVisibility AnalyseFloorVisibility(const cv::Mat& labels, int id, const cv::
     const double c = clearance(p, st);
     if (p.depth_m >= deep_m) {
       best_clearance = std::max(best_clearance, c);
+      st.deep_start_m = std::min(st.deep_start_m, c);
       tan_sum += st.tan_rim, ++tan_n;
     }
-    if (c < edge_m) st.shadow_edge_depth_m = std::max(st.shadow_edge_depth_m, p.depth_m);
   }
   if (tan_n == 0) return out;
   const double tan_rim = tan_sum / tan_n;
+  std::vector<double> starts;
+  for (const Strip& st : strips)
+    if (st.deep_start_m < 1e300) starts.push_back(st.deep_start_m);
+  std::nth_element(starts.begin(), starts.begin() + starts.size() / 2, starts.end());
+  const double deep_start_m = std::max(0.0, starts[starts.size() / 2]);
+  // The grazing rays' depth, from as far behind the rim as the smoothing moved the deepest
+  // part (rows nearer the rim mix the road in: a 120 mm cap at 5 m smoothed over 5 rows gave a
+  // bound of 113 mm).
+  const double edge_band_m = edge_m + deep_start_m;
+  for (const RayPoint& p : pts) {
+    if (!(p.depth_m >= rim_depth_m)) continue;
+    Strip& st = strip_of(p);
+    if (clearance(p, st) < edge_band_m) st.shadow_edge_depth_m = std::max(st.shadow_edge_depth_m, p.depth_m);
+  }
   out.grazing_angle_deg = std::atan(tan_rim) * 180.0 / CV_PI;
   out.rim_clearance_m = best_clearance;
-  out.floor_visible = best_clearance >= margin_m;
+  out.floor_visible = best_clearance - deep_start_m >= margin_m;
   // Per strip the stretch behind the rim no ray reaches ends where the grazing rays meet the
   // surface (depth d at d/tan e). Between the rim (depth 0) and that point the floor can be no
   // deeper than walls of the assumed slope allow from both ends. A seen floor caps it: that

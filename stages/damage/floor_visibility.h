@@ -4,7 +4,7 @@
 // pothole, so its measured depth and volume are only what this frame can see. Per
 // detection: the elevation e of the rays over the near rim, the shadow line x·tan e behind
 // it (the deepest point visible at along-view distance x), whether the deepest seen surface
-// stands clear of that line (floor seen) or lies on it (floor hidden), an upper bound on the
+// extends clear of that line (floor seen) or lies along it (floor hidden), an upper bound on the
 // hidden depth and volume, and an estimate of them (the hidden near wall completed from the
 // seen far wall). Method and assumptions: docs/stages/damage.md
 // ("Hidden floors").
@@ -22,7 +22,9 @@ namespace rs {
 /// Line-of-sight result of one depression.
 struct FloorVisibility {
   bool analysed = false;      ///< false: no valid depth or no road under it (fields below unknown)
-  bool floor_visible = true;  ///< the deepest seen surface stands clear of the near rim's shadow line
+  /// The deepest seen surface reaches options.floor_clearance_px rows farther from the near
+  /// rim's shadow line than where it begins (exact disparity: clear of the line by that much).
+  bool floor_visible = true;
   double grazing_angle_deg = kUnknown;  ///< elevation of the rays over the near rim above the road plane
   double rim_clearance_m = kUnknown;    ///< how far the deepest seen surface stands above the shadow line
   double hidden_length_m = kUnknown;    ///< longest stretch behind the near rim no ray reaches (along the view)

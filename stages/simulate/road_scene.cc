@@ -1,5 +1,7 @@
 #include "stages/simulate/road_scene.h"
 
+#include "stages/simulate/footprint_coverage.h"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -156,6 +158,20 @@ RoadScene::RoadScene(const SimulationOptions& o, double s_view_min, double s_vie
   lighting_.shadows = o.shadows;
   sun_gain_ = (1 - lighting_.ambient) / lighting_.sun_world.z();
   markings_ = o.lane_markings;
+  // Shadow samples: directions spread evenly over the sun's disc (a Vogel
+  // spiral), each paired with a footprint point of a 4 x 4 grid in scrambled
+  // order so that neither set lines up with the other.
+  {
+    const Eigen::Vector3d& sun = lighting_.sun_world;
+    const Eigen::Vector3d e1 = sun.unitOrthogonal(), e2 = sun.cross(e1);
+    const double golden = kPi * (3 - std::sqrt(5.0));
+    for (int k = 0; k < kSunSamples; ++k) {
+      const double r = kSunRadiusTan * std::sqrt((k + 0.5) / kSunSamples), a = k * golden;
+      sun_dirs_[k] = (sun + r * (std::cos(a) * e1 + std::sin(a) * e2)).normalized();
+      const int m = (k * 7) % kSunSamples;
+      sun_offsets_[k] = Eigen::Vector2d((m % 4 + 0.5) / 4 - 0.5, (m / 4 + 0.5) / 4 - 0.5);
+    }
+  }
 
   PlaceDamage(o, s_view_min, s_view_max);
   PlaceObstacles(o, s_view_min, s_view_max);
@@ -334,15 +350,69 @@ float RoadScene::FilteredAlbedo(double s, double l, const Footprint& fp) const {
     const double stone = w * stones + (1 - w) * kStoneMean;
     double alb = 0.16 + 0.07 * big + 0.05 * stain + 0.22 * stone + 0.06 * mid + 0.12 * fine;
     if (markings_) {
-      const bool centre = a < 0.06 && std::fmod(std::abs(s), dash_ + gap_) < dash_;
-      const bool edge = std::abs(a - (hw - 0.3)) < 0.075;
-      if (centre || edge) alb = 0.40 + 0.08 * stain + 0.08 * fine + 0.04 * mid;
+      const double paint = PaintCoverage(s, l, fp);
+      if (paint > 0) alb += paint * (0.40 + 0.08 * stain + 0.08 * fine + 0.04 * mid - alb);
     }
     return static_cast<float>(alb);
   }
   if (a <= hw + road_.kerb_width()) return static_cast<float>(0.42 + 0.05 * stain + 0.08 * mid + 0.10 * fine);
   const double blades = centred(1);
   return static_cast<float>(0.12 + 0.05 * stain + 0.10 * mid + 0.12 * blades + 0.06 * fine);
+}
+
+double RoadScene::PaintCoverage(double s, double l, const Footprint& fp) const {
+  // The footprint box (major along the axis, minor across it) projects on the
+  // l axis as sides major |axis_l| and minor |axis_s|, on the s axis the other
+  // way round; isotropic footprints keep axis (1, 0).
+  const double minor = 1.0 / fp.inv_minor;
+  const double al = fp.major_m * std::abs(fp.axis_l), bl = minor * std::abs(fp.axis_s);
+  const double hw = road_.half_width();
+  // Edge lines: 0.15 m wide, centred 0.3 m inside the road edges.
+  double paint = StripCoverage(l, hw - 0.375, hw - 0.225, al, bl) + StripCoverage(l, 0.225 - hw, 0.375 - hw, al, bl);
+  // Centre line: 0.12 m wide, dashes [k P, k P + dash] in |s| (P = dash + gap).
+  const double across = StripCoverage(l, -0.06, 0.06, al, bl);
+  if (across > 0) {
+    const double as = fp.major_m * std::abs(fp.axis_s), bs = minor * std::abs(fp.axis_l);
+    const double period = dash_ + gap_, sa = std::abs(s);
+    const double k = std::floor(sa / period);
+    double along = 0;
+    for (double j = k - 1; j <= k + 1; ++j) along += StripCoverage(sa, j * period, j * period + dash_, as, bs);
+    paint += across * along;
+  }
+  return std::min(paint, 1.0);
+}
+
+double RoadScene::SunVisibility(const Eigen::Vector3d& p, const Eigen::Vector3d& dp_du,
+                                const Eigen::Vector3d& dp_dv) const {
+  // Most road pixels are nowhere near an obstacle's shadow: one test of the
+  // central sun ray against each bounding sphere, grown by how far the
+  // samples can stray from that ray (footprint radius + distance x sun radius).
+  const Eigen::Vector3d& sun = lighting_.sun_world;
+  const double foot_r = 0.5 * (dp_du.norm() + dp_dv.norm());
+  bool near = false;
+  for (const Obstacle& ob : obstacles_) {
+    const bool box = ob.kind == Obstacle::Kind::kBox;
+    const double hz = box ? 0.0 : 0.5 * ob.half_size.z();
+    const Eigen::Vector3d w = ob.centre + Eigen::Vector3d(0, 0, hz) - p;
+    const double r2 = box ? ob.half_size.squaredNorm() : ob.half_size.x() * ob.half_size.x() + hz * hz;
+    const double tc = w.dot(sun);
+    const double r = std::sqrt(r2) + foot_r + std::max(tc, 0.0) * kSunRadiusTan * 1.01 + 1e-4;
+    if (tc + r < 0) continue;
+    if (w.squaredNorm() - tc * tc <= r * r) {
+      near = true;
+      break;
+    }
+  }
+  if (!near) return 1.0;
+  int lit = 0;
+  double t;
+  Eigen::Vector3d n;
+  const Obstacle* which;
+  for (int k = 0; k < kSunSamples; ++k) {
+    const Eigen::Vector3d o = p + sun_offsets_[k].x() * dp_du + sun_offsets_[k].y() * dp_dv;
+    if (!ObstacleHit(o, sun_dirs_[k], 100.0, &t, &n, &which)) ++lit;
+  }
+  return lit * (1.0 / kSunSamples);
 }
 
 bool RoadScene::ObstacleHit(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double t_max, double* t_out,
@@ -590,10 +660,9 @@ RayHit RoadScene::Cast(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const
   }
   double irr = L.ambient + sun_gain_ * std::max(0.0, n.dot(L.sun_world));
   if (L.shadows && !obstacles_.empty()) {
-    double ts;
-    Eigen::Vector3d ns;
-    const Obstacle* w;
-    if (ObstacleHit(out.p_world + 1e-3 * n, L.sun_world, 100.0, &ts, &ns, &w)) irr = L.ambient;
+    // The sun's share of the irradiance, scaled by the visible part of its disc.
+    const double inv_cos = 1.0 / cos_i;
+    irr = L.ambient + (irr - L.ambient) * SunVisibility(out.p_world + 1e-3 * n, pu * inv_cos, pv * inv_cos);
   }
   out.radiance = static_cast<float>(L.exposure * alb * irr);
   return out;

@@ -6,6 +6,7 @@
 // along the centreline from its start, l = lateral offset, positive to the left
 // of the direction of increasing s.
 
+#include <array>
 #include <cstdint>
 #include <limits>
 #include <memory>
@@ -199,6 +200,14 @@ class RoadScene {
   float BaseAlbedo(double s, double l, const Footprint& fp) const;
   template <bool kAniso>
   float FilteredAlbedo(double s, double l, const Footprint& fp) const;
+  /// Fraction of the footprint on lane paint (centre dashes, edge lines): the
+  /// footprint box's coverage across and along the road, multiplied (exact for
+  /// boxes aligned with the road, close for the rotated ones of oblique views).
+  double PaintCoverage(double s, double l, const Footprint& fp) const;
+  /// Fraction of the sun's disc visible from the road point p, averaged over
+  /// the pixel footprint spanned by dp_du and dp_dv (the soft penumbra a pixel
+  /// records: width = distance to the occluding edge x tan(0.53 deg)).
+  double SunVisibility(const Eigen::Vector3d& p, const Eigen::Vector3d& dp_du, const Eigen::Vector3d& dp_dv) const;
   bool ObstacleHit(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double t_max, double* t,
                    Eigen::Vector3d* n, const Obstacle** which) const;
 
@@ -210,6 +219,14 @@ class RoadScene {
   std::vector<Obstacle> obstacles_;
   Lighting lighting_;
   double sun_gain_ = 1;  // (1 - ambient) / sun z: flat road under the sun gets irradiance 1
+  /// Shadow rays per shaded road pixel near an obstacle: each a direction on
+  /// the sun's disc paired with a point of the pixel footprint (in units of
+  /// dp/du, dp/dv). 16 levels: steps of 1/16 of the shadow contrast.
+  static constexpr int kSunSamples = 16;
+  /// tan of the sun's angular radius (0.265 deg: its disc is 0.53 deg wide).
+  static constexpr double kSunRadiusTan = 4.625e-3;
+  std::array<Eigen::Vector3d, kSunSamples> sun_dirs_;
+  std::array<Eigen::Vector2d, kSunSamples> sun_offsets_;
   std::unique_ptr<NoiseTable> noise_;
   std::vector<Octave> octaves_;
   std::vector<double> octave_inv_scale_;  // 1 / octaves_[k].scale_m: the texture filter needs no division
