@@ -86,11 +86,17 @@ cv::Mat ResponseOfGrey(const cv::Mat& grey, const cv::Mat& pixel_size_m, const C
 // Median and robust σ (1.4826·MAD, at least 1 grey level) of a sample; false when too small.
 bool RobustLevel(std::vector<uchar>& vals, double* med, double* sigma) {
   if (vals.size() < 100) return false;
-  auto mid = vals.begin() + vals.size() / 2;
-  std::nth_element(vals.begin(), mid, vals.end());
-  *med = *mid;
+  // Grey levels counted once: the median (the size/2-th smallest, as nth_element) and the
+  // absolute deviations' histogram both follow from the counts.
+  size_t count[256] = {0};
+  for (uchar x : vals) ++count[x];
+  const size_t k = vals.size() / 2;
+  size_t below = 0;
+  int m = 0;
+  while (below + count[m] <= k) below += count[m++];
+  *med = m;
   int hist[256] = {0};
-  for (uchar x : vals) ++hist[std::abs(int(x) - int(*med))];
+  for (int x = 0; x < 256; ++x) hist[std::abs(x - m)] += static_cast<int>(count[x]);
   size_t acc = 0;
   int mad = 0;
   while (mad < 255 && (acc += hist[mad]) < vals.size() / 2 + 1) ++mad;

@@ -106,11 +106,7 @@ FrameDamage DetectDamage(const cv::Mat& input_disparity_px, const cv::Mat& left_
     disparity_px = input_disparity_px;
   f.surface = FitRoadSurface(disparity_px, g, o.road);
   const RoadRelief evaluated = EvaluateRoadModel(disparity_px, g, f.surface, o.road);
-  RoadRelief first = evaluated;  // masks shared; the images FinishRoadRelief writes are copied
-  first.transformed_disparity_px = evaluated.transformed_disparity_px.clone();
-  first.depth_below_mm = evaluated.depth_below_mm.clone();
-  first.road_depth_m = evaluated.road_depth_m.clone();
-  f.relief = FinishRoadRelief(std::move(first), disparity_px, g, f.surface, o.road);
+  f.relief = FinishRoadRelief(evaluated, disparity_px, g, f.surface, o.road);  // `evaluated` kept for the refinement
   f.ms_road = MsSince(t0);
 
   t0 = std::chrono::steady_clock::now();
@@ -137,14 +133,15 @@ FrameDamage DetectDamage(const cv::Mat& input_disparity_px, const cv::Mat& left_
     if (!edges.empty() && cv::countNonZero(edges) > 0) {
       const cv::Mat edge_noise =
           LocalReliefNoise(relief.value, relief.valid & edges, scale.road_level, o.segment.noise_cell_px, scale.sigma);
-      noise = noise.clone();
+      cv::Mat merged(noise.size(), CV_32F);  // `noise` may be road_noise: not changed
       tbb::parallel_for(0, noise.rows, [&](int v) {
-        float* n = noise.ptr<float>(v);
+        const float* n = noise.ptr<float>(v);
         const float* en = edge_noise.ptr<float>(v);
         const uchar* e = edges.ptr<uchar>(v);
-        for (int u = 0; u < noise.cols; ++u)
-          if (e[u]) n[u] = std::max(n[u], en[u]);
+        float* m = merged.ptr<float>(v);
+        for (int u = 0; u < noise.cols; ++u) m[u] = e[u] ? std::max(n[u], en[u]) : n[u];
       });
+      noise = merged;
     }
   }
   const DepressionSegmentation seg = SegmentDepressions(relief, o.segment, area, scale, noise);
@@ -188,7 +185,16 @@ FrameDamage DetectDamage(const cv::Mat& input_disparity_px, const cv::Mat& left_
     // pixels are included: wrong winners gather there.
     const cv::Mat spikes = LocalReliefSpikes(relief.value, relief.valid, scale.road_level, o.segment.noise_cell_px,
                                              scale.sigma, 40.0, o.measure.spike_quantile);
-    measure_noise = cv::max(road_noise, spikes * (o.measure.pothole_min_spike_ratio / o.measure.pothole_min_noise_sigma));
+    // max(road_noise, spikes · k) in one pass (as cv::max of the scaled copy: OpenCV scales a
+    // float image by the float factor, one rounding).
+    const float k = static_cast<float>(o.measure.pothole_min_spike_ratio / o.measure.pothole_min_noise_sigma);
+    measure_noise = cv::Mat(road_noise.size(), CV_32F);  // a new image: road_noise is kept
+    tbb::parallel_for(0, road_noise.rows, [&](int v) {
+      const float* rn = road_noise.ptr<float>(v);
+      const float* sp = spikes.ptr<float>(v);
+      float* m = measure_noise.ptr<float>(v);
+      for (int u = 0; u < road_noise.cols; ++u) m[u] = std::max(rn[u], sp[u] * k);
+    });
   }
   f.instances = MeasureDepressions(f.labels, f.relief, g, f.surface, o.measure, measure_noise);
   // Oblique views: may the near rim hide the floor (depth and volume then lower bounds)?

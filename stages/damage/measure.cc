@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <climits>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <stdexcept>
 
 namespace rs {
@@ -36,12 +38,26 @@ std::vector<cv::Rect> LabelBoxes(const cv::Mat& labels) {
     const int v0 = labels.rows * k / kBands, v1 = labels.rows * (k + 1) / kBands;
     for (int v = v0; v < v1; ++v) {
       const uint16_t* l = labels.ptr<uint16_t>(v);
-      for (int u = 0; u < labels.cols; ++u) {
+      // Runs of one id update its box once: most of a frame is road (skipped 16 labels at a
+      // time), the rest mostly runs across a depression.
+      for (int u = 0; u < labels.cols;) {
+        if (u + 16 <= labels.cols) {
+          uint64_t w[4];
+          std::memcpy(w, l + u, sizeof w);
+          if (!(w[0] | w[1] | w[2] | w[3])) {
+            u += 16;
+            continue;
+          }
+        }
         const int id = l[u];
-        if (!id) continue;
-        if (id >= static_cast<int>(b.size())) b.resize(id + 1);
-        Box& x = b[id];
-        x.u0 = std::min(x.u0, u), x.u1 = std::max(x.u1, u), x.v0 = std::min(x.v0, v), x.v1 = std::max(x.v1, v);
+        int end = u + 1;  // one past the run
+        while (end < labels.cols && l[end] == id) ++end;
+        if (id) {
+          if (id >= static_cast<int>(b.size())) b.resize(id + 1);
+          Box& x = b[id];
+          x.u0 = std::min(x.u0, u), x.u1 = std::max(x.u1, end - 1), x.v0 = std::min(x.v0, v), x.v1 = std::max(x.v1, v);
+        }
+        u = end;
       }
     }
   });

@@ -143,5 +143,27 @@ TEST(MeasureDepressions, WrongLabelType) {
                std::invalid_argument);
 }
 
+// LabelBoxes (16 zero labels skipped at once, runs of one id) against a per-pixel reference at an
+// awkward size: rectangles, single pixels and runs crossing 16-pixel blocks, up to the frame edges.
+TEST(LabelBoxes, EqualsPerPixelReference) {
+  cv::Mat labels = cv::Mat::zeros(357, 631, CV_16U);
+  cv::RNG rng(7);
+  for (int i = 0; i < 60; ++i) {
+    const int id = rng.uniform(1, 40), u = rng.uniform(0, labels.cols), v = rng.uniform(0, labels.rows);
+    const cv::Rect r = cv::Rect(u, v, rng.uniform(1, 70), rng.uniform(1, 20)) & cv::Rect({}, labels.size());
+    labels(r).setTo(id);
+  }
+  labels.at<uint16_t>(0, 0) = 41, labels.at<uint16_t>(356, 630) = 42, labels.at<uint16_t>(200, 15) = 43;
+  labels.row(100).colRange(14, 34).setTo(44);
+  std::vector<cv::Rect> expected(45);
+  for (int v = 0; v < labels.rows; ++v)
+    for (int u = 0; u < labels.cols; ++u)
+      if (const int id = labels.at<uint16_t>(v, u); id > 0)
+        expected[id] = expected[id].empty() ? cv::Rect(u, v, 1, 1) : expected[id] | cv::Rect(u, v, 1, 1);
+  std::vector<cv::Rect> boxes = LabelBoxes(labels);
+  boxes.resize(std::max(boxes.size(), expected.size()));
+  for (size_t id = 1; id < expected.size(); ++id) EXPECT_EQ(boxes[id], expected[id]) << "id " << id;
+}
+
 }  // namespace
 }  // namespace rs

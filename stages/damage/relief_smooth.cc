@@ -82,15 +82,16 @@ double SmoothReliefRows(RoadRelief& r, const std::vector<cv::Size>& windows, int
   } else {
     for (cv::Mat* d : dst) d->create(r.depth_below_mm.size(), CV_32F);
     // Each band filtered with the rows its window reaches beyond it (outside the image: zero,
-    // as the full-frame filter), written to its own rows.
+    // as the full-frame filter), written to its own rows: a row range without BORDER_ISOLATED
+    // reads the rows beyond it from its image (the same sums, in the same order, as filtering
+    // the extended range and copying the band's rows out). Headers on the pixels alone, so a
+    // relief that is a view (RefineRoadRelief's masks) reads nothing beyond itself.
     tbb::parallel_for(0, static_cast<int>(3 * bands.size()), [&](int job) {
       const Band& b = bands[job / 3];
-      const int i = job % 3, a = b.k.height / 2;
-      const int s0 = std::max(0, b.v0 - a), s1 = std::min(rows, b.v1 + a);
-      cv::Mat out;
-      cv::boxFilter(src[i]->rowRange(s0, s1), out, CV_32F, b.k, {-1, -1}, false,
-                    cv::BORDER_CONSTANT | cv::BORDER_ISOLATED);
-      out.rowRange(b.v0 - s0, b.v1 - s0).copyTo(dst[i]->rowRange(b.v0, b.v1));
+      const int i = job % 3;
+      const cv::Mat in(src[i]->rows, src[i]->cols, src[i]->type(), src[i]->data, src[i]->step);
+      cv::Mat out = dst[i]->rowRange(b.v0, b.v1);  // a view: the filter writes the band in place
+      cv::boxFilter(in.rowRange(b.v0, b.v1), out, CV_32F, b.k, {-1, -1}, false, cv::BORDER_CONSTANT);
     });
   }
   double sigma = 0;

@@ -3,6 +3,9 @@
 #include <Eigen/Dense>
 #include <opencv2/imgproc.hpp>
 #include <tbb/parallel_for.h>
+#if defined(__AVX__)
+#include <immintrin.h>
+#endif
 
 #include <algorithm>
 #include <array>
@@ -431,10 +434,18 @@ void CorrectPixels4(const double* xs, double y, double nx, double ny, double nz,
 }
 
 // Applies the correction `corr` to the uncorrected relief `r`, whose pixel (0, 0) is image
-// pixel `at` (r, disparity_px and corr all of one size).
+// pixel `at` (r, disparity_px and corr all of one size). With `from`, the uncorrected transformed
+// disparity, depth and road depth are read from there and written to new images of `r` (row by
+// row, while in cache: no separate copy of the frame); `r` needs only its masks then.
 void ApplyCorrection(RoadRelief& r, const cv::Mat& corr, const cv::Mat& disparity_px, cv::Point at,
-                     const StereoGeometry& g, const RoadSurface& s, const RoadModelOptions& o) {
+                     const StereoGeometry& g, const RoadSurface& s, const RoadModelOptions& o,
+                     const RoadRelief* from = nullptr) {
   r.correction_mm = corr;
+  if (from) {
+    r.transformed_disparity_px.create(corr.size(), CV_32F);
+    r.depth_below_mm.create(corr.size(), CV_32F);
+    r.road_depth_m.create(corr.size(), CV_32F);
+  }
   const double fb = g.f_px * g.baseline_m, delta = o.delta_px;
   const double nx = s.normal.x(), ny = s.normal.y(), nz = s.normal.z();
   const std::vector<double> xs = RayColumns(g, at.x, corr.cols);  // one division per column
@@ -446,6 +457,12 @@ void ApplyCorrection(RoadRelief& r, const cv::Mat& corr, const cv::Mat& disparit
     float* rz = r.road_depth_m.ptr<float>(v);
     const uchar* va = r.valid_mask.ptr<uchar>(v);
     const double y = (v + at.y - g.cy_px) / g.f_px;
+    if (from) {
+      const size_t bytes = corr.cols * sizeof(float);
+      std::memcpy(td, from->transformed_disparity_px.ptr<float>(v), bytes);
+      std::memcpy(db, from->depth_below_mm.ptr<float>(v), bytes);
+      std::memcpy(rz, from->road_depth_m.ptr<float>(v), bytes);
+    }
     int u = 0;
     for (; u + 4 <= corr.cols; u += 4)
       CorrectPixels4(&xs[u], y, nx, ny, nz, fb, delta, c + u, d + u, va + u, td + u, db + u, rz + u);
@@ -534,7 +551,13 @@ void EvaluatePixels4(const ModelConstants& k, const double* xs, double y, const 
   const V4l lin = Abs4(A * z_lin * z_lin) < 1e-9 * std::abs(C) + 1e-15;
   const V4d disc = B * B - 4 * A * C;
   V4d sq;
+#if defined(__AVX__)
+  // One vector square root (IEEE, correctly rounded: the scalar one's values); lanes with
+  // disc < 0 or NaN take sqrt(0) = 0, as the scalar loop's 0.
+  sq = reinterpret_cast<V4d>(_mm256_sqrt_pd(reinterpret_cast<__m256d>(disc >= 0 ? disc : 0.0)));
+#else
   for (int i = 0; i < 4; ++i) sq[i] = disc[i] >= 0 ? std::sqrt(disc[i]) : 0.0;
+#endif
   const V4d qq = -0.5 * (B + (B >= 0 ? sq : -sq));
   const V4d z1 = qq / A, z2 = C / qq;
   const V4d zq = Abs4(z1 - z_lin) < Abs4(z2 - z_lin) ? z1 : z2;
@@ -605,17 +628,23 @@ RoadRelief EvaluateRoadModel(const cv::Mat& disparity_px, const StereoGeometry& 
   return EvaluateRect(disparity_px, g, s, o, cv::Rect({}, disparity_px.size()));
 }
 
-RoadRelief FinishRoadRelief(RoadRelief r, const cv::Mat& disparity_px, const StereoGeometry& g, const RoadSurface& s,
-                            const RoadModelOptions& o, const cv::Mat& exclude) {
+RoadRelief FinishRoadRelief(const RoadRelief& evaluated, const cv::Mat& disparity_px, const StereoGeometry& g,
+                            const RoadSurface& s, const RoadModelOptions& o, const cv::Mat& exclude) {
   if (!exclude.empty() && (exclude.type() != CV_8UC1 || exclude.size() != disparity_px.size()))
     throw std::invalid_argument("road relief: exclude mask must be CV_8U of the disparity's size");
-  if (r.depth_below_mm.size() != disparity_px.size())
+  if (evaluated.depth_below_mm.size() != disparity_px.size())
     throw std::invalid_argument("road relief: evaluated model and disparity differ in size");
+  RoadRelief r;  // the masks shared with `evaluated`, new images for the rest
+  r.obstacle_mask = evaluated.obstacle_mask;
+  r.valid_mask = evaluated.valid_mask;
   if (o.local_cell_px > 0) {
-    const LocalCorrection c = ComputeLocalCorrection(r.depth_below_mm, r.obstacle_mask, exclude, s, o);
-    ApplyCorrection(r, c.full, disparity_px, {0, 0}, g, s, o);
+    const LocalCorrection c = ComputeLocalCorrection(evaluated.depth_below_mm, r.obstacle_mask, exclude, s, o);
+    ApplyCorrection(r, c.full, disparity_px, {0, 0}, g, s, o, &evaluated);
     r.correction_grid_mm = c.grid;
   } else {
+    r.transformed_disparity_px = evaluated.transformed_disparity_px.clone();
+    r.depth_below_mm = evaluated.depth_below_mm.clone();
+    r.road_depth_m = evaluated.road_depth_m.clone();
     r.correction_mm = cv::Mat::zeros(r.depth_below_mm.size(), CV_32F);
   }
   if (o.relief_smooth_px > 1)
@@ -651,13 +680,13 @@ void RefineRoadRelief(RoadRelief& r, const RoadRelief& evaluated, const cv::Mat&
   MergeOverlappingRects(&regions);  // no pixel done twice
   for (const cv::Rect& inner : regions) {
     const cv::Rect outer = cv::Rect(inner.x - m, inner.y - m, inner.width + 2 * m, inner.height + 2 * m) & frame;
-    RoadRelief sub;
-    sub.transformed_disparity_px = evaluated.transformed_disparity_px(outer).clone();
-    sub.depth_below_mm = evaluated.depth_below_mm(outer).clone();
-    sub.road_depth_m = evaluated.road_depth_m(outer).clone();
+    RoadRelief from, sub;  // the region of the evaluation (views), its corrected copy
+    from.transformed_disparity_px = evaluated.transformed_disparity_px(outer);
+    from.depth_below_mm = evaluated.depth_below_mm(outer);
+    from.road_depth_m = evaluated.road_depth_m(outer);
     sub.valid_mask = evaluated.valid_mask(outer);
     sub.obstacle_mask = evaluated.obstacle_mask(outer);
-    ApplyCorrection(sub, c.full(outer), disparity_px(outer), outer.tl(), g, s, o);
+    ApplyCorrection(sub, c.full(outer), disparity_px(outer), outer.tl(), g, s, o, &from);
     if (o.relief_smooth_px > 1) SmoothReliefRows(sub, windows, outer.y, o.relief_smooth_edge_sigma, r.smooth_noise_px);
     const cv::Rect in_sub(inner.tl() - outer.tl(), inner.size());
     sub.transformed_disparity_px(in_sub).copyTo(r.transformed_disparity_px(inner));

@@ -70,11 +70,11 @@ RoadRelief ComputeRoadRelief(const cv::Mat& disparity_px, const StereoGeometry& 
 /// recomputation without the found depressions) reuses the per-pixel evaluation:
 /// EvaluateRoadModel = the quadratic on every pixel (no local correction, no smoothing;
 /// correction_mm left empty);
-/// FinishRoadRelief = local correction and smoothing applied to it (in place: the images of
-/// `evaluated` are reused; copy the transformed disparity, depth and road depth to keep them).
+/// FinishRoadRelief = local correction and smoothing applied to it (`evaluated` unchanged; the
+/// result shares its masks).
 RoadRelief EvaluateRoadModel(const cv::Mat& disparity_px, const StereoGeometry& geometry,
                              const RoadSurface& surface, const RoadModelOptions& options);
-RoadRelief FinishRoadRelief(RoadRelief evaluated, const cv::Mat& disparity_px, const StereoGeometry& geometry,
+RoadRelief FinishRoadRelief(const RoadRelief& evaluated, const cv::Mat& disparity_px, const StereoGeometry& geometry,
                             const RoadSurface& surface, const RoadModelOptions& options,
                             const cv::Mat& exclude = cv::Mat());
 
