@@ -58,6 +58,14 @@ inline double Atan2Fast(double y, double x) {
   return y < 0 ? -r : r;
 }
 
+// An obstacle's bounding sphere: a box about its centre, a cylinder about its axis' middle.
+void BoundingSphere(const Obstacle& ob, Eigen::Vector3d* centre, double* r2) {
+  const bool box = ob.kind == Obstacle::Kind::kBox;
+  const double hz = box ? 0.0 : 0.5 * ob.half_size.z();
+  *centre = ob.centre + Eigen::Vector3d(0, 0, hz);
+  *r2 = box ? ob.half_size.squaredNorm() : ob.half_size.x() * ob.half_size.x() + hz * hz;
+}
+
 }  // namespace
 
 const char* ToString(DamageType t) {
@@ -391,10 +399,10 @@ double RoadScene::SunVisibility(const Eigen::Vector3d& p, const Eigen::Vector3d&
   const double foot_r = 0.5 * (dp_du.norm() + dp_dv.norm());
   bool near = false;
   for (const Obstacle& ob : obstacles_) {
-    const bool box = ob.kind == Obstacle::Kind::kBox;
-    const double hz = box ? 0.0 : 0.5 * ob.half_size.z();
-    const Eigen::Vector3d w = ob.centre + Eigen::Vector3d(0, 0, hz) - p;
-    const double r2 = box ? ob.half_size.squaredNorm() : ob.half_size.x() * ob.half_size.x() + hz * hz;
+    Eigen::Vector3d c;
+    double r2;
+    BoundingSphere(ob, &c, &r2);
+    const Eigen::Vector3d w = c - p;
     const double tc = w.dot(sun);
     const double r = std::sqrt(r2) + foot_r + std::max(tc, 0.0) * kSunRadiusTan * 1.01 + 1e-4;
     if (tc + r < 0) continue;
@@ -423,10 +431,10 @@ bool RoadScene::ObstacleHit(const Eigen::Vector3d& o, const Eigen::Vector3d& d, 
     {
       // Bounding-sphere rejection: most rays pass far from every obstacle, and
       // this costs a few multiplies instead of a rotated slab or quadric test.
-      const bool box = ob.kind == Obstacle::Kind::kBox;
-      const double hz = box ? 0.0 : 0.5 * ob.half_size.z();
-      const Eigen::Vector3d w = ob.centre + Eigen::Vector3d(0, 0, hz) - o;
-      const double r2 = box ? ob.half_size.squaredNorm() : ob.half_size.x() * ob.half_size.x() + hz * hz;
+      Eigen::Vector3d c;
+      double r2;
+      BoundingSphere(ob, &c, &r2);
+      const Eigen::Vector3d w = c - o;
       const double tc = w.dot(d);
       const double dist2 = w.squaredNorm() - tc * tc;
       if (dist2 > r2 * 1.0001 + 1e-9) continue;
