@@ -121,7 +121,8 @@ FrameDamage DetectDamage(const cv::Mat& input_disparity_px, const cv::Mat& left_
   // Seeds must be significant against the noise where they lie (LocalReliefNoise, never below
   // the frame's σ). Pixels next to strong image steps (paint edges) form their own noise class,
   // estimated from those pixels alone: where the matcher fails there (0.3-1 px) they cannot seed
-  // a depression, where it does not (the truth disparity) nothing changes.
+  // a depression, where it does not (the truth disparity) little changes (but a pothole under a
+  // line beside the verge: docs/stages/damage.md "Known gaps").
   cv::Mat noise, road_noise, reliable;
   if (o.segment.noise_cell_px > 0) {
     reliable = relief.valid;

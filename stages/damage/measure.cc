@@ -421,15 +421,18 @@ void ExtendToRim(cv::Mat& labels, const RoadRelief& r, double rim_depth_m, doubl
     // longer holds); outside up to 12 px (within two bands of the segmented instance; road only:
     // no other instance, obstacle).
     constexpr int kMaxRings = 12;
+    // Where the per-pixel noise sets the rim threshold (our disparity) only the two inner rings
+    // are used (below): no outside rings then.
+    const bool fit_profile = 3 * pixel_sigma < floor_mm;
     const cv::Mat in0 = lab == id;
     cv::Mat in_dist, out_dist;
     cv::distanceTransform(in0, in_dist, cv::DIST_L1, 3);
-    cv::distanceTransform(in0 == 0, out_dist, cv::DIST_L1, 3);
+    if (fit_profile) cv::distanceTransform(in0 == 0, out_dist, cv::DIST_L1, 3);
     double sum_in[kMaxRings] = {0}, sum_out[kMaxRings] = {0};
     int n_in[kMaxRings] = {0}, n_out[kMaxRings] = {0};
     for (int v = 0; v < lab.rows; ++v) {
       const float* di = in_dist.ptr<float>(v);
-      const float* dout = out_dist.ptr<float>(v);
+      const float* dout = fit_profile ? out_dist.ptr<float>(v) : nullptr;
       const float* od = dist.ptr<float>(v);
       const float* x = rim_depth.ptr<float>(v);
       const uint16_t* l = lab.ptr<uint16_t>(v);
@@ -438,7 +441,7 @@ void ExtendToRim(cv::Mat& labels, const RoadRelief& r, double rim_depth_m, doubl
         if (!std::isfinite(x[u])) continue;
         if (const int j = static_cast<int>(di[u]) - 1; j >= 0 && j < kMaxRings) {
           sum_in[j] += x[u] - level(u, v), ++n_in[j];
-        } else if (const int k = static_cast<int>(dout[u]) - 1;
+        } else if (const int k = dout ? static_cast<int>(dout[u]) - 1 : -1;
                    k >= 0 && k < kMaxRings && l[u] == 0 && !ob[u] && od[u] <= 2 * band) {
           sum_out[k] += x[u] - level(u, v), ++n_out[k];
         }
@@ -456,7 +459,7 @@ void ExtendToRim(cv::Mat& labels, const RoadRelief& r, double rim_depth_m, doubl
     // disparity: area max 7.7 -> 10.2 %). There the first-order step stays (the outline's two
     // inner rings, at most 2 px outwards).
     int extra;
-    if (3 * pixel_sigma >= floor_mm) {
+    if (!fit_profile) {
       extra = std::min(2, static_cast<int>(std::floor(m1 / (m2 - m1))));  // round(m1/slope - 1/2)
     } else {
       RimProfile prof;
