@@ -75,6 +75,8 @@ void DisparityParams::Check() const {
     fail("refine_highpass_px", std::to_string(refine_highpass_px), "refine_highpass_px odd, 3 <= refine_highpass_px <= 63");
   if (!(refine_max_coherence > 0 && refine_max_coherence <= 1))
     fail("refine_max_coherence", Num(refine_max_coherence), "0 < refine_max_coherence <= 1");
+  if (!(refine_shift_ratio == 0 || refine_shift_ratio >= 1))
+    fail("refine_shift_ratio", Num(refine_shift_ratio), "refine_shift_ratio = 0 or >= 1");
   if (speckle_window_size < 0) fail("speckle_window_size", std::to_string(speckle_window_size), "speckle_window_size >= 0");
   if (!(gpt_min_valid_fraction >= 0 && gpt_min_valid_fraction <= 1))
     fail("gpt_min_valid_fraction", Num(gpt_min_valid_fraction), "0 <= gpt_min_valid_fraction <= 1");
@@ -368,8 +370,11 @@ void HighPass(const cv::Mat& img, int box, cv::Mat* out) {
 // pixels [u0, u0 + n) of a row, all with the integer disparity k and T already offset by -k
 // (Tk[u] = T[u - k]); 0 where invalid. In a function of its own with __restrict pointers and a
 // loop-invariant k, the loads are contiguous and the loop vectorises.
+// With kFit: also fit[u] = G^2 (k_n - e_n / G_n - c)^2 = (kc G - 24 e)^2 (kc = k - c), the pixel's
+// share of the window's squared residual about the offset c (see RefineFit).
+template <bool kFit>
 __attribute__((noinline)) void RefineTerms(const int16_t* __restrict L, const int16_t* __restrict Tk, const uint8_t* __restrict m,
-                        int k, int u0, int n, float* __restrict num, float* __restrict den) {
+                        int k, int u0, int n, float* __restrict num, float* __restrict den, int kc, float* __restrict fit) {
   for (int u = u0; u < u0 + n; ++u) {
     // 24 x the mean of both views' derivatives: the derivative at the midpoint of the step, so
     // one Gauss-Newton step is exact for quadratic intensity profiles (efficient second-order
@@ -387,6 +392,10 @@ __attribute__((noinline)) void RefineTerms(const int16_t* __restrict L, const in
     const float w = static_cast<float>(ok != 0);
     num[u] = w * (static_cast<float>(k) * static_cast<float>(g2) - static_cast<float>(eg));
     den[u] = w * static_cast<float>(g2);
+    if constexpr (kFit) {
+      const float r = static_cast<float>(kc) * static_cast<float>(g) - static_cast<float>(24 * e);
+      fit[u] = w * r * r;
+    }
   }
 }
 
@@ -394,7 +403,7 @@ __attribute__((noinline)) void RefineTerms(const int16_t* __restrict L, const in
 // warp: the road's residual is delta everywhere) go to RefineTerms whole, the run's ends that
 // would read outside either image get no terms.
 void RefineTermsRow(const int16_t* L, const int16_t* T, const uint8_t* m, const float* d, int W, int* k_row,
-                    float* num, float* den) {
+                    float* num, float* den, int c = 0, float* fit = nullptr) {
   for (int u = 0; u < W; ++u) k_row[u] = static_cast<int>(std::nearbyint(d[u]));
   for (int u0 = 0; u0 < W;) {
     const int k = k_row[u0];
@@ -403,7 +412,13 @@ void RefineTermsRow(const int16_t* L, const int16_t* T, const uint8_t* m, const 
     // Inside both images with the 5-tap neighbourhoods: u in [2, W - 3] and u - k in [2, W - 3].
     const int lo = std::max({u0, 2, 2 + k}), hi = std::min({u1, W - 2, W - 2 + k});
     for (int u = u0; u < std::min(lo, u1); ++u) num[u] = 0, den[u] = 0;
-    if (lo < hi) RefineTerms(L, T - k, m, k, lo, hi - lo, num, den);
+    if (fit) {
+      for (int u = u0; u < std::min(lo, u1); ++u) fit[u] = 0;
+      for (int u = std::max(hi, u0); u < u1; ++u) fit[u] = 0;
+      if (lo < hi) RefineTerms<true>(L, T - k, m, k, lo, hi - lo, num, den, k - c, fit);
+    } else if (lo < hi) {
+      RefineTerms<false>(L, T - k, m, k, lo, hi - lo, num, den, 0, nullptr);
+    }
     for (int u = std::max(hi, u0); u < u1; ++u) num[u] = 0, den[u] = 0;
     u0 = u1;
   }
@@ -457,12 +472,35 @@ void AgreeRow(const float* __restrict sum_d, int W, float agree_px, uint16_t* __
   }
 }
 
+// A refinement window's fit, per pixel (RefinePass with a RefineFit): `value` = its least-squares
+// shift (unconditional), `spread` = the G^2-weighted variance of its pixels' own estimates about
+// it, px^2 (the fit's residual over sum G^2: noise, plus the square of any disparity step the
+// window straddles), +inf where the window's sum G^2 is below the pass's gate.
+struct RefineFit {
+  cv::Mat value, spread;
+};
+
+// RefineFit's row from the window sums about the offset c: spread = sum fit / sum G^2 - (l - c)^2.
+void FitRow(const float* __restrict sum_n, const float* __restrict sum_d, const float* __restrict sum_f, int W, int c,
+            float min_weight, float* __restrict value, float* __restrict spread) {
+  constexpr float kInf = std::numeric_limits<float>::infinity();
+  const float cf = static_cast<float>(c);
+  for (int u = 0; u < W; ++u) {
+    const float inv = 1.0f / std::max(sum_d[u], 1.0f);
+    const float l = sum_n[u] * inv, lc = l - cf;
+    value[u] = l;
+    spread[u] = sum_d[u] >= min_weight ? std::max(0.0f, sum_f[u] * inv - lc * lc) : kInf;
+  }
+}
+
 // One refinement pass over the whole map `sgm` (SGM's values; their integer parts are the winners)
 // with a window x window window (see RefineSubpixel) into `out` (another Mat: no copy of `sgm`).
 // `terms`: the pixels whose intensities enter the sums (valid ones, possibly fewer); `valid`: the
 // pixels refined. `agree` (optional): AgreeRow of this pass's sums, for the smooth window's merge.
+// `fit` (optional): the window's RefineFit at every pixel, for ShiftWindows.
 void RefinePass(const cv::Mat& ref_hp, const cv::Mat& target_hp, const cv::Mat& sgm, cv::Mat* out, const cv::Mat& valid,
-                const cv::Mat& terms, int window, float min_weight, cv::Mat* agree = nullptr, float agree_px = 0) {
+                const cv::Mat& terms, int window, float min_weight, cv::Mat* agree = nullptr, float agree_px = 0,
+                RefineFit* fit = nullptr) {
   const int W = ref_hp.cols, H = ref_hp.rows, r = window / 2;
   // Bands of rows, each on its own: the terms of the band's rows and r rows either side (the
   // window's reach; recomputed by both neighbouring bands — cheaper than a second parallel pass
@@ -471,19 +509,37 @@ void RefinePass(const cv::Mat& ref_hp, const cv::Mat& target_hp, const cv::Mat& 
   CV_Assert(out->data != sgm.data);  // a band's halo rows are its neighbours' output rows
   out->create(sgm.size(), CV_32F);
   if (agree) agree->create(sgm.size(), CV_16U);
+  if (fit) fit->value.create(sgm.size(), CV_32F), fit->spread.create(sgm.size(), CV_32F);
   tbb::parallel_for(tbb::blocked_range<int>(0, H, kBand), [&](const tbb::blocked_range<int>& rows) {
     const int y0 = std::max(0, rows.begin() - r), y1 = std::min(H, rows.end() + r);
-    std::vector<float> num(static_cast<size_t>(y1 - y0) * W), den(num.size());
+    // The fit's squared residuals are summed about an offset near the band's disparities (the
+    // rounded mean of its middle row): about 0, float sums of k^2-sized terms would cancel.
+    int c = 0;
+    if (fit) {
+      const int vm = (rows.begin() + rows.end()) / 2;
+      const float* d = sgm.ptr<float>(vm);
+      const uint8_t* m = valid.ptr<uint8_t>(vm);
+      double sum = 0;
+      int n = 0;
+      for (int u = 0; u < W; ++u)
+        if (m[u]) sum += d[u], ++n;
+      c = n ? static_cast<int>(std::lround(sum / n)) : 0;
+    }
+    std::vector<float> num(static_cast<size_t>(y1 - y0) * W), den(num.size()), fit_terms(fit ? num.size() : 0);
     std::vector<int> k_row(W);
-    for (int y = y0; y < y1; ++y)
+    for (int y = y0; y < y1; ++y) {
+      const size_t at = static_cast<size_t>(y - y0) * W;
       RefineTermsRow(ref_hp.ptr<int16_t>(y), target_hp.ptr<int16_t>(y), terms.ptr<uint8_t>(y), sgm.ptr<float>(y), W,
-                     k_row.data(), num.data() + static_cast<size_t>(y - y0) * W, den.data() + static_cast<size_t>(y - y0) * W);
+                     k_row.data(), num.data() + at, den.data() + at, c, fit ? fit_terms.data() + at : nullptr);
+    }
     std::vector<float> col_n(W + 2 * r, 0.0f), col_d(W + 2 * r, 0.0f), sum_n(W), sum_d(W);
-    float *cn = col_n.data() + r, *cd = col_d.data() + r;
+    std::vector<float> col_f(fit ? W + 2 * r : 0, 0.0f), sum_f(fit ? W : 0);
+    float *cn = col_n.data() + r, *cd = col_d.data() + r, *cf = fit ? col_f.data() + r : nullptr;
     auto add_row = [&](int y, float sign) {
       if (y < y0 || y >= y1) return;
       AddRow(num.data() + static_cast<size_t>(y - y0) * W, W, sign, cn);
       AddRow(den.data() + static_cast<size_t>(y - y0) * W, W, sign, cd);
+      if (fit) AddRow(fit_terms.data() + static_cast<size_t>(y - y0) * W, W, sign, cf);
     };
     for (int y = rows.begin() - r; y <= rows.begin() + r; ++y) add_row(y, 1.0f);
     for (int v = rows.begin(); v < rows.end(); ++v) {
@@ -492,6 +548,58 @@ void RefinePass(const cv::Mat& ref_hp, const cv::Mat& target_hp, const cv::Mat& 
       BoxRow(cd, W, r, sum_d.data());
       RefineApplyRow(sum_n.data(), sum_d.data(), valid.ptr<uint8_t>(v), W, min_weight, sgm.ptr<float>(v), out->ptr<float>(v));
       if (agree) AgreeRow(sum_d.data(), W, agree_px, agree->ptr<uint16_t>(v));
+      if (fit) {
+        BoxRow(cf, W, r, sum_f.data());
+        FitRow(sum_n.data(), sum_d.data(), sum_f.data(), W, c, min_weight, fit->value.ptr<float>(v), fit->spread.ptr<float>(v));
+      }
+    }
+  });
+}
+
+// Shiftable windows (edge-preserving): at a valid pixel whose centred window straddles a change of
+// disparity (a pothole's wall, a kerb) the window's fit spreads the far side's disparity onto the
+// pixel. Of the 8 windows of the same size that still contain the pixel at an edge or corner
+// (centres r px away along the rows, columns and diagonals), the one with the smallest spread
+// (RefineFit) lies on the pixel's own side; its value replaces `out` where the centred window's
+// spread exceeds `ratio` times that smallest spread (so on uniform road, where all spreads are
+// noise of the same size, the centred value stays). Candidates more than 1 px from the pixel's
+// SGM value `sgm` are not taken (the same gate as the centred window's), nor ones farther from
+// `local` (an estimate of the pixel's own that no wider window blurred) than the centred value: on a
+// sloping wall every window fits a ramp equally badly and the flat road beside it fits best, and
+// without this test the wall's pixels would take the road's value.
+void ShiftWindows(const cv::Mat& sgm, const cv::Mat& valid, const RefineFit& fit, const cv::Mat& local, int r, float ratio,
+                  cv::Mat* out) {
+  const int W = sgm.cols, H = sgm.rows;
+  constexpr float kInf = std::numeric_limits<float>::infinity();
+  tbb::parallel_for(tbb::blocked_range<int>(0, H, 32), [&](const tbb::blocked_range<int>& rows) {
+    std::vector<float> best_s(W), best_l(W);
+    for (int v = rows.begin(); v < rows.end(); ++v) {
+      const float* __restrict d = sgm.ptr<float>(v);
+      const float* __restrict lc = fit.value.ptr<float>(v);
+      const float* __restrict ll = local.ptr<float>(v);
+      std::fill(best_s.begin(), best_s.end(), kInf);
+      float *__restrict bs = best_s.data(), *__restrict bl = best_l.data();
+      for (int dv = -r; dv <= r; dv += r) {
+        if (v + dv < 0 || v + dv >= H) continue;
+        const float *__restrict cs = fit.spread.ptr<float>(v + dv), *__restrict cl = fit.value.ptr<float>(v + dv);
+        for (int du = -r; du <= r; du += r) {
+          if (du == 0 && dv == 0) continue;
+          const int lo = std::max(0, -du), hi = std::min(W, W - du);
+          for (int u = lo; u < hi; ++u) {  // branch-free: vectorises
+            const float s = cs[u + du], l = cl[u + du];
+            const bool better = (s < bs[u]) & (std::abs(l - d[u]) <= 1.0f) & (std::abs(l - ll[u]) <= std::abs(lc[u] - ll[u]));
+            bs[u] = better ? s : bs[u];
+            bl[u] = better ? l : bl[u];
+          }
+        }
+      }
+      const float* __restrict s0 = fit.spread.ptr<float>(v);
+      const uint8_t* __restrict m = valid.ptr<uint8_t>(v);
+      float* __restrict o = out->ptr<float>(v);
+      for (int u = 0; u < W; ++u) {
+        const bool take = (m[u] != 0) & (s0[u] < kInf) & (s0[u] > ratio * bs[u]);
+        o[u] = take ? bl[u] : o[u];
+      }
     }
   });
 }
@@ -587,7 +695,16 @@ void RefineSubpixel(const cv::Mat& ref, const cv::Mat& target, cv::Mat* disparit
   // instead of averaging out over texture. Such pixels give no terms to the smooth window, and
   // take its value: the texture around them.
   if (edges) cv::bitwise_and(valid, ~edge, terms);
-  RefinePass(ref_hp, target_hp, sgm_in, &smoothed, valid, edges ? terms : valid, o.smooth_window, kSmoothMinWeight);
+  // Shiftable smooth windows: where the centred 21x21 window straddles a pothole's wall (within
+  // 10 px of it) a window beside the pixel replaces it, its value checked against the small
+  // window's. The small window stays centred: shifting it too (checked against SGM's value) cost as
+  // much again (+3 ms CPU per 1280x720 pair) without a better result downstream
+  // (docs/stages/disparity.md, "Pothole walls: shiftable refinement windows").
+  thread_local RefineFit tls_fit;
+  const bool shift = o.shift_ratio > 0;
+  RefinePass(ref_hp, target_hp, sgm_in, &smoothed, valid, edges ? terms : valid, o.smooth_window, kSmoothMinWeight, nullptr, 0,
+             shift ? &tls_fit : nullptr);
+  if (shift) ShiftWindows(sgm_in, valid, tls_fit, *disparity, o.smooth_window / 2, static_cast<float>(o.shift_ratio), &smoothed);
   // Elsewhere the smooth window's value is taken where it agrees with the small window's within
   // smooth_agree_px (no structure the small window resolves and the large one would blur, e.g. a
   // pothole's wall), the value is at most smooth_max_px (the road and below it, not obstacles) and
@@ -713,6 +830,7 @@ DisparityResult ComputeDisparity(const cv::Mat& left, const cv::Mat& right, cons
   refine.window = P.refine_window;
   refine.max_edge_coherence = P.refine_max_coherence;
   refine.highpass = P.refine_highpass_px;
+  refine.shift_ratio = P.refine_shift_ratio;
   if (gpt) refine.smooth_window = P.refine_smooth_window, refine.smooth_agree_px = P.refine_smooth_agree_px,
            refine.smooth_max_px = smooth_max_px;
   RefineSubpixel(ref_s, target_s, &sgm.disparity, sgm.valid, refine);

@@ -67,6 +67,13 @@ struct DisparityParams {
   /// on the edge's position in each view's pixel grid (the simulator's aliased edges: up to
   /// +-0.5 px); a small box keeps the ramp inside the edge band refine_max_coherence handles.
   int refine_highpass_px = 9;
+  /// Shiftable smooth windows (refine_smooth_window): where a pixel's centred window fits its
+  /// pixels' disparities this many times worse (G^2-weighted spread) than the best of the 8
+  /// same-sized windows that hold the pixel at their edge or corner (and whose value is no farther
+  /// from refine_window's), that window's value is taken: the centred window straddles a depth
+  /// change (a pothole's wall) and would spread the far side's disparity up to 10 px onto the
+  /// road. 0 = off; else >= 1.
+  double refine_shift_ratio = 4.0;
 
   int gpt_num_disparities = 32;  ///< GPT-SGM residual search range, px (road residual + damage depth)
   double gpt_delta_px = 8;       ///< delta: residual disparity of the road's row minimum; damage down to -delta fits
@@ -154,6 +161,8 @@ struct SubpixelRefineOptions {
   /// Box of the local mean subtracted from both images before the least squares (odd, >= 3;
   /// DisparityParams::refine_highpass_px).
   int highpass = 9;
+  /// With smooth_window: shiftable smooth windows (DisparityParams::refine_shift_ratio); 0 = off, else >= 1.
+  double shift_ratio = 0;
 };
 
 /// RefineSubpixel with the larger smooth window and the edge test.

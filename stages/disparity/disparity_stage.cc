@@ -102,6 +102,11 @@ const OptionTable<DisparityParams>& ParamsTable() {
                "differs; a small box keeps the ramp it makes beside paint and shadow edges near the edge)", "px")
           .Min(3)
           .Max(63)
+          .Add("refine_shift_ratio", &DisparityParams::refine_shift_ratio,
+               "shiftable smooth windows: where the centred refine_smooth_window window's fit is this many times worse "
+               "than the best same-sized window holding the pixel at its edge or corner (a depth change such as a "
+               "pothole's wall), that window's value is taken (0 = off; else >= 1)")
+          .Min(0)
           .Add("gpt_num_disparities", &DisparityParams::gpt_num_disparities,
                "GPT-SGM residual search range (road residual + damage depth)", "px")
           .Min(1)

@@ -472,6 +472,71 @@ TEST(Disparity, RefineSubpixelHighPassNearPaintEdge) {
   EXPECT_LT(stage, 0.03) << "15-px box: " << wide;
 }
 
+// A rectangular pothole 0.7 px deeper than the road (its four walls vertical steps of disparity)
+// on a noisy textured pair, from pixel-locked starting values. The centred windows average both
+// sides of a wall, spreading the step over the window's half-width on either side (the 9x9
+// window 4 px, the 21x21 one up to 10 px where it agrees with the 9x9 value within its bound);
+// the shiftable windows take, beside a wall, the window on the pixel's own side. Edge spread:
+// the farthest a pixel off by more than a quarter of the step lies from the nearest wall.
+TEST(Disparity, RefineSubpixelShiftableWindowsKeepPotholeWalls) {
+  const int W = 240, H = 140;
+  const double road = 5.3, floor = 4.6;  // px; the pothole: columns [90, 150), rows [40, 100)
+  const cv::Rect pothole(90, 40, 60, 60);
+  constexpr double kNoise = 2.0;  // grey levels, each view
+  auto truth = [&](int u, int v) { return pothole.contains(cv::Point(u, v)) ? floor : road; };
+  cv::Mat left(H, W, CV_8U), target(H, W, CV_8U);
+  cv::RNG rng(5);
+  for (int v = 0; v < H; ++v)
+    for (int x = 0; x < W; ++x) {
+      // Target column x shows the left column u with u - d(u) = x: the floor's where that lands inside.
+      const double u_in = x + floor;
+      const double u = pothole.contains(cv::Point(static_cast<int>(std::floor(u_in)), v)) ? u_in : x + road;
+      left.at<uint8_t>(v, x) = cv::saturate_cast<uint8_t>(Texture(x, v) + rng.gaussian(kNoise));
+      target.at<uint8_t>(v, x) = cv::saturate_cast<uint8_t>(Texture(u, v) + rng.gaussian(kNoise));
+    }
+  cv::GaussianBlur(left, left, cv::Size(0, 0), 1.0), cv::GaussianBlur(target, target, cv::Size(0, 0), 1.0);
+  cv::Mat d0(H, W, CV_32F), valid(H, W, CV_8U, cv::Scalar(255));
+  for (int v = 0; v < H; ++v)
+    for (int u = 0; u < W; ++u) d0.at<float>(v, u) = static_cast<float>(std::round(truth(u, v)));
+  // Edge spread (px) and the RMS error of the road and floor more than 12 px from any wall.
+  auto measure = [&](const cv::Mat& d, double* rms_far) {
+    int spread = 0;
+    double s2 = 0;
+    int n = 0;
+    for (int v = 12; v < H - 12; ++v)
+      for (int u = 12; u < W - 12; ++u) {
+        const int du = std::min(std::abs(u - pothole.x), std::abs(u - pothole.br().x));
+        const int dv = std::min(std::abs(v - pothole.y), std::abs(v - pothole.br().y));
+        // Distance to the nearest wall (the rectangle's outline).
+        const bool in_rows = v >= pothole.y && v < pothole.br().y, in_cols = u >= pothole.x && u < pothole.br().x;
+        const int dist = in_rows && in_cols ? std::min(du, dv) : in_rows ? du : in_cols ? dv : std::max(du, dv);
+        const double e = d.at<float>(v, u) - truth(u, v);
+        if (std::abs(e) > 0.25 * (road - floor)) spread = std::max(spread, dist + 1);
+        if (dist > 12) s2 += e * e, ++n;
+      }
+    *rms_far = std::sqrt(s2 / n);
+    return spread;
+  };
+  SubpixelRefineOptions o;
+  o.smooth_window = 21, o.max_edge_coherence = 0.7, o.highpass = DisparityParams().refine_highpass_px;
+  cv::Mat d_centred = d0.clone(), d_shift = d0.clone();
+  RefineSubpixel(left, target, &d_centred, valid, o);
+  o.shift_ratio = DisparityParams().refine_shift_ratio;
+  ASSERT_GT(o.shift_ratio, 0) << "the stage's default has the shiftable windows on";
+  RefineSubpixel(left, target, &d_shift, valid, o);
+  double rms_centred = 0, rms_shift = 0;
+  const int spread_centred = measure(d_centred, &rms_centred), spread_shift = measure(d_shift, &rms_shift);
+  // Measured: 9 px centred (the 21x21 window's reach), 5 px shiftable: within 4 px of a wall the
+  // 9x9 window's own straddle (at most 0.15 px here) and the 21x21 one's, where the per-pixel
+  // estimates' spread (noise plus the one Gauss-Newton step's linearisation error) keeps the
+  // ratio below refine_shift_ratio, remain.
+  EXPECT_GE(spread_centred, 8) << "the premise: centred windows spread the walls";
+  EXPECT_LE(spread_shift, 5) << "centred windows: " << spread_centred << " px";
+  // Away from the walls the road's noise does not grow.
+  EXPECT_LT(rms_shift, 1.1 * rms_centred + 0.002) << "centred " << rms_centred;
+  EXPECT_LT(rms_shift, 0.05);
+}
+
 TEST(Disparity, BadParams) {
   DisparityParams params;
   params.p1 = 8;
