@@ -120,13 +120,15 @@ FrameDamage DetectDamage(const cv::Mat& input_disparity_px, const cv::Mat& left_
   const ReliefScale scale = EstimateReliefScale(relief);
   // Seeds must be significant against the noise where they lie (LocalReliefNoise, never below
   // the frame's σ). Pixels next to strong image steps (paint edges) form their own noise class,
-  // estimated from those pixels alone: where the matcher fails there (0.3-1 px) they cannot seed
-  // a depression, where it does not (the truth disparity) little changes (but a pothole under a
-  // line beside the verge: docs/stages/damage.md "Known gaps").
+  // estimated from those pixels alone: where the matcher fails there (0.3-1 px) they can neither
+  // seed a depression nor carry one along the paint (they grow only as deep as they seed), where
+  // it does not (the truth disparity) they are road like any other.
   cv::Mat noise, road_noise, reliable;
   if (o.segment.noise_cell_px > 0) {
-    reliable = relief.valid;
-    if (!edges.empty()) reliable = relief.valid & (edges == 0);
+    // A new image: assigned to a copy of relief.valid's header, the expression was written into
+    // relief.valid itself and cleared every edge pixel from the segmentation (a pothole under an
+    // edge line: car, truth disparity, IoU 0.53; docs/stages/damage.md "Paint edges").
+    reliable = edges.empty() ? relief.valid : cv::Mat(relief.valid & (edges == 0));
     // Road samples beyond 40 frame σ above the road are structure (the smoothed fringe of an
     // obstacle, the model bent beside it), not matching noise; at paint edges they are the noise.
     noise = LocalReliefNoise(relief.value, reliable, scale.road_level, o.segment.noise_cell_px, scale.sigma, 40.0);
@@ -145,7 +147,8 @@ FrameDamage DetectDamage(const cv::Mat& input_disparity_px, const cv::Mat& left_
       noise = merged;
     }
   }
-  const DepressionSegmentation seg = SegmentDepressions(relief, o.segment, area, scale, noise);
+  const DepressionSegmentation seg =
+      SegmentDepressions(relief, o.segment, area, scale, noise, noise.empty() ? cv::Mat() : edges);
   f.labels = seg.labels;
   // Obstacle pixels were measured above the road: never damage. The segmentation sees them only
   // as pixels without relief, like stereo dropouts, and absorbs such patches into a depression

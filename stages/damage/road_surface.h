@@ -58,8 +58,9 @@ struct RoadRelief {
 };
 
 /// Evaluates the model on every pixel, then (local_cell_px > 0) corrects it locally: per cell,
-/// the median depth below the model of road pixels within a band (4 σ, damage and obstacles
-/// excluded; twice, the second band from the first pass' spread), empty cells filled from
+/// the median depth below the model of road pixels within a band (4 σ below the model and up to
+/// the obstacle height above it: a rise off the quadratic is road, damage lies below; damage and
+/// obstacles excluded; twice, the second band ±3× the first pass' spread), empty cells filled from
 /// their neighbours, 3×3 smoothed, bilinearly interpolated.
 /// `exclude` (optional CV_8U, non-zero = known damage) is left out of the local correction.
 RoadRelief ComputeRoadRelief(const cv::Mat& disparity_px, const StereoGeometry& geometry,

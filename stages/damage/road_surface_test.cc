@@ -152,6 +152,54 @@ TEST(RoadSurface, EvaluateMatchesPixelReference) {
   EXPECT_GT(obstacles, 1000);
 }
 
+// The road rising off the quadratic towards a verge (car seed 2 frame 7, truth disparity: the
+// verge rises up to 30 mm above the fitted surface before the kerb, and a 47 mm pothole there
+// measured 37.4 mm). The local correction's first band, ±6 mm about the quadratic, dropped the
+// rise, so cells there took their neighbours' correction: the road reference beside the pothole
+// was 8 mm (median, up to 24 mm) too low. The rise is road, not damage (damage lies below): the
+// band reaches up to the obstacle height. Here a rise of 30·q² mm over the right 0.6 m of the
+// frame (q from 0 to 1 across it; the quadratic does not follow it) with a 40 mm, 0.2 m pothole
+// in it: the road raised > 10 mm within 1 mm of the surface (median |depth below|), the
+// pothole's depth within 3 mm.
+TEST(RoadSurface, LocalCorrectionFollowsARiseOffTheQuadratic) {
+  SyntheticRoadScene scene;
+  scene.more_potholes.push_back({1.1, 0.0, 0.1, 0.04});
+  const StereoGeometry& g = scene.geometry;
+  const cv::Mat flat = scene.Render();
+  const double th = scene.pitch_deg * CV_PI / 180, H = scene.height_m, fb = g.f_px * g.baseline_m;
+  const Eigen::Vector3d up(0, -std::cos(th), -std::sin(th));
+  const auto rise_m = [](double x_m) { const double q = std::clamp((x_m - 0.8) / 0.6, 0.0, 1.0); return 0.03 * q * q; };
+  // Every surface point raised by the rise at its lateral position (the pothole moves with it).
+  cv::Mat d = flat.clone();
+  cv::Mat on_rise(d.size(), CV_8U, cv::Scalar(0));
+  for (int v = 0; v < d.rows; ++v)
+    for (int u = 0; u < d.cols; ++u) {
+      const float d0 = flat.at<float>(v, u);
+      if (!(d0 > 0)) continue;
+      const Eigen::Vector3d r((u - g.cx_px) / g.f_px, (v - g.cy_px) / g.f_px, 1.0);
+      const double z = fb / d0, height = up.dot(z * r) + H;  // ≤ 0: on or below the plane
+      const double h = rise_m(z * r.x());
+      d.at<float>(v, u) = static_cast<float>(fb * up.dot(r) / (-H + height + h));
+      if (h > 0.01 && height > -1e-4) on_rise.at<uchar>(v, u) = 255;  // road (not the pothole) raised > 10 mm
+    }
+  ASSERT_GT(cv::countNonZero(on_rise), 10000);
+  const FrameDamage f = DetectDamage(d, cv::Mat(), g, DamageOptions());
+  std::vector<float> below;
+  for (int v = 0; v < d.rows; v += 2)
+    for (int u = 0; u < d.cols; u += 2)
+      if (on_rise.at<uchar>(v, u) && !f.labels.at<uint16_t>(v, u) && std::isfinite(f.relief.depth_below_mm.at<float>(v, u)))
+        below.push_back(std::abs(f.relief.depth_below_mm.at<float>(v, u)));
+  ASSERT_GT(below.size(), 1000u);
+  std::nth_element(below.begin(), below.begin() + below.size() / 2, below.end());
+  EXPECT_LT(below[below.size() / 2], 1.0);  // with the ±6 mm band: 9.1 mm
+  // The pothole on the rise: the instance right of the image's centre column.
+  const DamageInstance* on = nullptr;
+  for (const DamageInstance& i : f.instances)
+    if (!i.outline_px.empty() && cv::mean(i.outline_px)[0] > g.cx_px + 200) on = &i;
+  ASSERT_NE(on, nullptr);
+  EXPECT_NEAR(on->max_depth_m, 0.04, 0.003);
+}
+
 // Nadir view of a crowned road (2.5 % crossfall each side of the crown) with a 120 mm kerb and the
 // pavement beyond it, and a parked car hiding the kerb-side lane: the pavement, seen only past
 // the car, must not pull the fitted surface up over the hidden lane (it did: 40-110 mm "below the

@@ -307,7 +307,7 @@ double EnergyThresholdSigma(const cv::Mat& z, const cv::Mat& valid, const Segmen
 
 DepressionSegmentation SegmentDepressions(const ReliefImage& relief, const SegmentOptions& o,
                                           const cv::Mat& pixel_area_m2, std::optional<ReliefScale> scale,
-                                          const cv::Mat& noise_sigma) {
+                                          const cv::Mat& noise_sigma, const cv::Mat& noisy_class) {
   o.Check();
   if (relief.value.type() != CV_32FC1 || relief.valid.type() != CV_8UC1 || relief.value.size() != relief.valid.size())
     throw std::invalid_argument("SegmentDepressions: relief must be CV_32F with a CV_8U mask of the same size");
@@ -318,6 +318,8 @@ DepressionSegmentation SegmentDepressions(const ReliefImage& relief, const Segme
   if (!(out.scale.sigma > 0)) throw std::invalid_argument("SegmentDepressions: relief scale sigma must be > 0");
   if (!noise_sigma.empty() && (noise_sigma.type() != CV_32FC1 || noise_sigma.size() != relief.value.size()))
     throw std::invalid_argument("SegmentDepressions: noise_sigma must be CV_32F of the relief's size");
+  if (!noisy_class.empty() && (noise_sigma.empty() || noisy_class.type() != CV_8UC1 || noisy_class.size() != relief.value.size()))
+    throw std::invalid_argument("SegmentDepressions: noisy_class must be CV_8U of the relief's size, with noise_sigma");
   cv::Mat z;
   relief.value.convertTo(z, CV_32F, 1.0 / out.scale.sigma, -out.scale.road_level / out.scale.sigma);
   out.threshold_sigma = EnergyThresholdSigma(z, relief.valid, o);
@@ -337,6 +339,18 @@ DepressionSegmentation SegmentDepressions(const ReliefImage& relief, const Segme
         if (sd[u] && !(x[u] - level < -k * ns[u])) sd[u] = 0;
     });
     out.noise_sigma = noise_sigma;
+    // A noisier class grows only as deep as it seeds: its wrong winners, though shallower than a
+    // seed, reach the frame's growth threshold and carried a region along a paint line.
+    if (!noisy_class.empty()) {
+      tbb::parallel_for(0, grow.rows, [&](int v) {
+        uchar* gr = grow.ptr<uchar>(v);
+        const uchar* c = noisy_class.ptr<uchar>(v);
+        const float* x = relief.value.ptr<float>(v);
+        const float* ns = noise_sigma.ptr<float>(v);
+        for (int u = 0; u < grow.cols; ++u)
+          if (gr[u] && c[u] && !(x[u] - level < -k * ns[u])) gr[u] = 0;
+      });
+    }
   }
   // Seeds must survive a small opening, so isolated noisy pixels do not start regions.
   if (o.morph_radius_px > 0) cv::morphologyEx(seed, seed, cv::MORPH_OPEN, Disk(o.morph_radius_px));

@@ -60,10 +60,16 @@ double EnergyThresholdSigma(const cv::Mat& z, const cv::Mat& valid, const Segmen
 /// `pixel_area_m2` (CV_32F, road-plane area of each pixel) enables the metric
 /// minimum size; empty = use options.min_area_px. `noise_sigma` (CV_32F, per-pixel σ in the
 /// relief's units, e.g. LocalReliefNoise): a seed must also lie min_threshold_sigma of it below
-/// the road (significant against the noise where it lies); growth keeps the frame's threshold.
+/// the road (significant against the noise where it lies); growth keeps the frame's threshold,
+/// except on `noisy_class` (optional CV_8U, non-zero = pixels of their own, noisier class, e.g.
+/// within the margin of paint edges, StrongEdgeMask), which join a region only as deep as a seed
+/// (a region grew along a paint line's wrong winners: obstacles seed 2, ours, a pothole's label
+/// 54 % road). Throws std::invalid_argument on bad types or sizes (noisy_class without
+/// noise_sigma included).
 DepressionSegmentation SegmentDepressions(const ReliefImage& relief, const SegmentOptions& options,
                                           const cv::Mat& pixel_area_m2 = cv::Mat(),
                                           std::optional<ReliefScale> scale = std::nullopt,
-                                          const cv::Mat& noise_sigma = cv::Mat());
+                                          const cv::Mat& noise_sigma = cv::Mat(),
+                                          const cv::Mat& noisy_class = cv::Mat());
 
 }  // namespace rs
