@@ -206,6 +206,172 @@ double OpeningEdgeGapPx(const RimProfile& r, double max_gap) {
   return best_gap;
 }
 
+// Rings about an outline: at most this many inside and outside.
+constexpr int kMaxRings = 12;
+
+// Per ring, the sum and count of depths above the ring plane: inside (j = 0 the outermost) and
+// outside (k = 0 the nearest).
+struct RingSums {
+  double sum_in[kMaxRings] = {0}, sum_out[kMaxRings] = {0};
+  int n_in[kMaxRings] = {0}, n_out[kMaxRings] = {0};
+  void operator+=(const RingSums& o) {
+    for (int j = 0; j < kMaxRings; ++j)
+      sum_in[j] += o.sum_in[j], sum_out[j] += o.sum_out[j], n_in[j] += o.n_in[j], n_out[j] += o.n_out[j];
+  }
+};
+
+// The two outer inner rings stand 4 σ of a mean clear of the road and of each other (with our
+// disparity unbounded steps grew potholes 20-80 % on noisy slopes): σ of a mean of n pixels of a
+// relief smoothed over w × w is σ·w/√n.
+bool WallSignificant(const RingSums& s, double ring_sigma, int window_px) {
+  if (s.n_in[0] < 10 || s.n_in[1] < 10) return false;
+  const double m1 = s.sum_in[0] / s.n_in[0], m2 = s.sum_in[1] / s.n_in[1];
+  const double sigma_m =
+      ring_sigma * std::max(1, window_px) / std::sqrt(static_cast<double>(std::min(s.n_in[0], s.n_in[1])));
+  return m1 >= 4 * sigma_m && m2 - m1 >= 4 * sigma_m;
+}
+
+// The ring means as a profile for OpeningEdgeGapPx: inside while within the wall's outer quarter
+// (at least four rings: a bowl's wall bends over towards the floor, where the power law no longer
+// holds), outside up to kMaxRings; rings with fewer than 10 pixels end either side. Empty when
+// fewer than four inner rings.
+RimProfile WallProfile(const RingSums& s, double depth99_mm) {
+  RimProfile prof;
+  for (int j = 0; j < kMaxRings && s.n_in[j] >= 10; ++j) {
+    const double mj = s.sum_in[j] / s.n_in[j];
+    if (j >= 4 && mj > 0.25 * depth99_mm) break;
+    prof.x.push_back(j + 0.5), prof.m.push_back(mj);
+  }
+  if (prof.x.size() < 4) return {};
+  for (int k = 0; k < kMaxRings && s.n_out[k] >= 10; ++k)
+    prof.x.push_back(-(k + 0.5)), prof.m.push_back(s.sum_out[k] / s.n_out[k]);
+  return prof;
+}
+
+// The depth plane of the ring around an instance (mm), in roi coordinates about its centre.
+struct RingPlane {
+  double c[3] = {0, 0, 0};
+  int cu = 0, cv = 0;
+  double operator()(int u, int v) const { return c[0] + c[1] * (u - cu) + c[2] * (v - cv); }
+};
+
+// One side of an outline along image scanlines (oblique views): columns scanned from the top
+// (dir = +1) or the bottom (-1), rows from the left (+1) or the right (-1). Per scanline the first
+// instance pixel is the edge; ring j inside is j pixels in from it, ring k outside k + 1 pixels out
+// (road only: no instance, obstacle, nothing beyond two bands). Only the scanlines where the outline
+// runs within 45° of across them on the road are this side's: its slope over ±w scanlines, rows
+// counting e column widths. Scanlines whose edge pixel is deeper than `max_edge_mm` (the wall's
+// outer quarter) end at an occluding edge (the ray passed over the wall: the depth jumps there, the
+// outline is exact) and are left out.
+struct SideScan {
+  RingSums sums;
+  std::vector<cv::Point> edges;  ///< (scanline, its edge's coordinate along it)
+};
+
+SideScan ScanSide(const cv::Mat& lab, const cv::Mat& in0, const cv::Mat& rim_depth, const cv::Mat& obstacle,
+                  const cv::Mat& dist, int band, const RingPlane& level, double e, bool columns, int dir,
+                  double max_edge_mm) {
+  const int lines = columns ? lab.cols : lab.rows, len = columns ? lab.rows : lab.cols;
+  auto px = [&](int i, int t) { return columns ? cv::Point(i, t) : cv::Point(t, i); };
+  std::vector<int> edge(lines, -1);
+  for (int i = 0; i < lines; ++i)
+    for (int s = 0; s < len; ++s)
+      if (const int t = dir > 0 ? s : len - 1 - s; in0.at<uchar>(px(i, t))) {
+        edge[i] = t;
+        break;
+      }
+  // Along a column scan the edge moves by rows (e units each) per column; along a row scan by
+  // columns per row (e units).
+  const int w = columns ? static_cast<int>(std::ceil(e)) : 1;
+  const double max_move = columns ? 2 * w / e : 2 * w * e;
+  SideScan r;
+  for (int i = w; i + w < lines; ++i) {
+    if (edge[i] < 0 || edge[i - w] < 0 || edge[i + w] < 0 || std::abs(edge[i + w] - edge[i - w]) > max_move) continue;
+    // An occluding edge: the outline's pixel already shows more than the wall's outer part.
+    const cv::Point p0 = px(i, edge[i]);
+    if (!(rim_depth.at<float>(p0) - level(p0.x, p0.y) <= max_edge_mm)) continue;
+    r.edges.emplace_back(i, edge[i]);
+    for (int j = 0; j < kMaxRings; ++j) {
+      const int t = edge[i] + dir * j;
+      if (t < 0 || t >= len || !in0.at<uchar>(px(i, t))) break;
+      const cv::Point p = px(i, t);
+      if (const float x = rim_depth.at<float>(p); std::isfinite(x))
+        r.sums.sum_in[j] += x - level(p.x, p.y), ++r.sums.n_in[j];
+    }
+    for (int k = 0; k < kMaxRings; ++k) {
+      const int t = edge[i] - dir * (k + 1);
+      if (t < 0 || t >= len) break;
+      const cv::Point p = px(i, t);
+      if (lab.at<uint16_t>(p) != 0 || obstacle.at<uchar>(p) || dist.at<float>(p) > 2 * band) break;
+      if (const float x = rim_depth.at<float>(p); std::isfinite(x))
+        r.sums.sum_out[k] += x - level(p.x, p.y), ++r.sums.n_out[k];
+    }
+  }
+  return r;
+}
+
+// Adds `gap` pixels (fractional: error diffusion along the side, so the area added is gap per
+// scanline on average; the true edge's phase on the pixel grid is unknown) beyond each edge of a
+// side, road pixels only.
+void GrowSide(cv::Mat& lab, int id, const cv::Mat& obstacle, const SideScan& side, bool columns, int dir, double gap) {
+  const int len = columns ? lab.rows : lab.cols;
+  double acc = 0.5;
+  for (const cv::Point& ed : side.edges) {
+    acc += gap;
+    const int n = static_cast<int>(std::floor(acc));
+    acc -= n;
+    for (int k = 1; k <= n; ++k) {
+      const int t = ed.y - dir * k;
+      if (t < 0 || t >= len) break;
+      const cv::Point p = columns ? cv::Point(ed.x, t) : cv::Point(t, ed.x);
+      uint16_t& l = lab.at<uint16_t>(p);
+      if ((l != 0 && l != id) || obstacle.at<uchar>(p)) break;
+      l = static_cast<uint16_t>(id);
+    }
+  }
+}
+
+// Oblique views (e >= 1.5): the opening's edge side by side, in image scanlines across each side.
+// The near rim is an occluding edge: a ray crossing the road just inside it passes over the wall
+// (a wall leaving the road tangentially is steeper than a ray at 15-20° within a millimetre or
+// two of the rim) onto the floor or the far wall, so the depth jumps there and the outline is
+// already exact; a profile across it is no wall's (rings all round, dilated by whole pixels, grew
+// car-view potholes by ~60 %: rows are 3-4 times longer on the road than columns). A side wall is
+// seen about as from above (its ray meets it near where it crosses the road). The far wall faces
+// the camera, but a pixel's depth is that of the point its ray meets after crossing the road, at
+// most tanθ × the run below the road, so the far outline stops about T / tanθ farther inside than
+// the wall's own gap at threshold T: its profile in rows is still fitted well enough by the power
+// law (between the tangential start and the linear t·s of the run). The far side is fitted along
+// columns (gap in rows), the near side the same on its scanlines that end at no occluding edge (a
+// wide shallow pothole's near wall, gentler than the ray, is seen), the two lateral sides pooled
+// along rows (gap in columns). `sigma_mm`: the ring's per-pixel noise (WallSignificant).
+void ExtendObliqueSides(cv::Mat& lab, int id, const cv::Mat& in0, const cv::Mat& rim_depth, const cv::Mat& obstacle,
+                        const cv::Mat& dist, int band, const RingPlane& level, double sigma_mm, int window_px,
+                        double depth99_mm, double e, bool far_up) {
+  const int far_dir = far_up ? 1 : -1;
+  const double max_edge_mm = 0.25 * depth99_mm;
+  auto scan = [&](bool columns, int dir, double max_edge) {
+    return ScanSide(lab, in0, rim_depth, obstacle, dist, band, level, e, columns, dir, max_edge);
+  };
+  const SideScan far = scan(true, far_dir, INFINITY), near = scan(true, -far_dir, max_edge_mm);
+  const SideScan left = scan(false, 1, INFINITY), right = scan(false, -1, INFINITY);
+  RingSums lateral = left.sums;
+  lateral += right.sums;
+  auto gap_of = [&](const RingSums& s, double cap) {
+    if (!WallSignificant(s, sigma_mm, window_px)) return 0.0;
+    const RimProfile prof = WallProfile(s, depth99_mm);
+    return prof.x.empty() ? 0.0 : std::min(cap, OpeningEdgeGapPx(prof, cap + 0.5));
+  };
+  // At most a quarter of the band on the road (at least 2 px), as near nadir.
+  const double cap_rows = std::max(2.0, band / (4.0 * e)), cap_cols = std::max(2, band / 4);
+  const double g_far = gap_of(far.sums, cap_rows), g_near = gap_of(near.sums, cap_rows);
+  const double g_lat = gap_of(lateral, cap_cols);
+  GrowSide(lab, id, obstacle, far, true, far_dir, g_far);
+  GrowSide(lab, id, obstacle, near, true, -far_dir, g_near);
+  GrowSide(lab, id, obstacle, left, false, 1, g_lat);
+  GrowSide(lab, id, obstacle, right, false, -1, g_lat);
+}
+
 }  // namespace
 
 void ExtendToRim(cv::Mat& labels, const RoadRelief& r, double rim_depth_m, double rim_depth_fraction,
@@ -281,7 +447,12 @@ void ExtendToRim(cv::Mat& labels, const RoadRelief& r, double rim_depth_m, doubl
       floor_mm = std::max(floor_mm, rim_depth_fraction * depth99_mm);
     }
     if (ring.size() < 20 || !FitDepthPlane(ring, plane, &ring_sigma)) plane[0] = plane[1] = plane[2] = 0, ring_sigma = 0;
-    auto level = [&](int u, int v) { return plane[0] + plane[1] * (u - lab.cols / 2) + plane[2] * (v - lab.rows / 2); };
+    const RingPlane level{{plane[0], plane[1], plane[2]}, lab.cols / 2, lab.rows / 2};
+    // The far side of an oblique view: where the rows are longer on the road.
+    auto far_up = [&](const cv::Rect& b) {
+      const int top = b.y, bottom = b.y + b.height - 1;
+      return bottom >= static_cast<int>(row_elongation.size()) || row_elongation[top] >= row_elongation[bottom];
+    };
     // Per pixel the rim depth's own noise about the plane (unsmoothed: about w times the relief's).
     double pixel_sigma = ring_sigma;
     if (rim_depth.data != depth.data && ring_sigma > 0) {
@@ -411,25 +582,46 @@ void ExtendToRim(cv::Mat& labels, const RoadRelief& r, double rim_depth_m, doubl
     // disparity, outline 1.1-1.5 px short on 0.15-0.3 m2 potholes, 2.5-4.3 px on 1.1-1.6 m2 ones,
     // area -4.5 to -7 %). Only where the two outer ring means stand 4 σ of a mean clear (with our
     // disparity unbounded steps grew potholes 20-80 % on noisy slopes), by at most a quarter of
-    // the band (at least 2 px), and only where a pixel's depth is that of the surface where its ray crosses the road
-    // (e < 1.5, as the superpixels' shaping): in an oblique view the near rim hides the wall and
-    // the far wall is seen along grazing rays (car view: +60 %).
-    if (e >= 1.5) continue;
-    // Rings: 4-neighbour (city-block) distance to the outline, the metric of the cross dilation
-    // that adds rings. Inside up to 12 px, while their mean depth stays within the wall's outer
-    // quarter (at least four: a bowl's wall bends over towards the floor, where the power law no
-    // longer holds); outside up to 12 px (within two bands of the segmented instance; road only:
-    // no other instance, obstacle).
-    constexpr int kMaxRings = 12;
+    // the band (at least 2 px). In oblique views (e >= 1.5, as the superpixels' shaping) a pixel's
+    // depth is not that of the surface where its ray crosses the road: each side is extended as
+    // the view shows it (ExtendObliqueSides; car, truth disparity: area bias -7.8 -> -2.5 %), where
+    // the matcher's noise does not set the threshold (there nothing is added).
     // Where the per-pixel noise sets the rim threshold (our disparity) only the two inner rings
     // are used (below): no outside rings then.
     const bool fit_profile = 3 * pixel_sigma < floor_mm;
     const cv::Mat in0 = lab == id;
+    if (e >= 1.5) {
+      // The matcher's noise from differences of ring pixels a smoothing window apart along the
+      // row: in a car view the ring plane's residual is mostly the road's own shape over a ring
+      // metres long (a verge, the crown: 0.6-1.4 mm with the truth disparity), not noise; the
+      // lag keeps our disparity's noise, correlated over the matcher's window, whole.
+      const int lag = std::max(1, ring_window_px) + 1;
+      std::vector<float> diff;
+      for (const cv::Point3f& q : ring) {
+        const int u = static_cast<int>(q.x) + lab.cols / 2, v = static_cast<int>(q.y) + lab.rows / 2;
+        if (u + lag >= lab.cols || lab.at<uint16_t>(v, u + lag) != 0 || obstacle.at<uchar>(v, u + lag)) continue;
+        if (const float d = rim_depth.at<float>(v, u + lag) - rim_depth.at<float>(v, u); std::isfinite(d))
+          diff.push_back(std::abs(d));
+      }
+      double pair_sigma = pixel_sigma;
+      if (diff.size() >= 20) {
+        auto mid = diff.begin() + diff.size() / 2;
+        std::nth_element(diff.begin(), mid, diff.end());
+        pair_sigma = 1.4826 * *mid / std::sqrt(2.0);
+      }
+      if (3 * pair_sigma < floor_mm)
+        ExtendObliqueSides(lab, id, in0, rim_depth, obstacle, dist, band, level, pair_sigma, ring_window_px, depth99_mm,
+                           e, far_up(boxes[id]));
+      continue;
+    }
+    // Rings: 4-neighbour (city-block) distance to the outline, the metric of the cross dilation
+    // that adds rings. Inside up to 12 px, while their mean depth stays within the wall's outer
+    // quarter (WallProfile); outside up to 12 px (within two bands of the segmented instance; road
+    // only: no other instance, obstacle).
     cv::Mat in_dist, out_dist;
     cv::distanceTransform(in0, in_dist, cv::DIST_L1, 3);
     if (fit_profile) cv::distanceTransform(in0 == 0, out_dist, cv::DIST_L1, 3);
-    double sum_in[kMaxRings] = {0}, sum_out[kMaxRings] = {0};
-    int n_in[kMaxRings] = {0}, n_out[kMaxRings] = {0};
+    RingSums rings_sum;
     for (int v = 0; v < lab.rows; ++v) {
       const float* di = in_dist.ptr<float>(v);
       const float* dout = fit_profile ? out_dist.ptr<float>(v) : nullptr;
@@ -440,18 +632,14 @@ void ExtendToRim(cv::Mat& labels, const RoadRelief& r, double rim_depth_m, doubl
       for (int u = 0; u < lab.cols; ++u) {
         if (!std::isfinite(x[u])) continue;
         if (const int j = static_cast<int>(di[u]) - 1; j >= 0 && j < kMaxRings) {
-          sum_in[j] += x[u] - level(u, v), ++n_in[j];
+          rings_sum.sum_in[j] += x[u] - level(u, v), ++rings_sum.n_in[j];
         } else if (const int k = dout ? static_cast<int>(dout[u]) - 1 : -1;
                    k >= 0 && k < kMaxRings && l[u] == 0 && !ob[u] && od[u] <= 2 * band) {
-          sum_out[k] += x[u] - level(u, v), ++n_out[k];
+          rings_sum.sum_out[k] += x[u] - level(u, v), ++rings_sum.n_out[k];
         }
       }
     }
-    if (n_in[0] < 10 || n_in[1] < 10) continue;
-    const double m1 = sum_in[0] / n_in[0], m2 = sum_in[1] / n_in[1];
-    const double sigma_m =
-        ring_sigma * std::max(1, ring_window_px) / std::sqrt(static_cast<double>(std::min(n_in[0], n_in[1])));
-    if (!(m1 >= 4 * sigma_m && m2 - m1 >= 4 * sigma_m)) continue;
+    if (!WallSignificant(rings_sum, ring_sigma, ring_window_px)) continue;
     // Where the per-pixel noise sets the rim threshold (our disparity), the profile's shape near
     // the outline is the stereo matcher's blur, not the wall's: its window spreads a wall's depth
     // 3-5 px onto the road (0.1 m2 potholes at 4 m: 2.5-4.5 mm of depth 4 px outside the true
@@ -460,17 +648,11 @@ void ExtendToRim(cv::Mat& labels, const RoadRelief& r, double rim_depth_m, doubl
     // inner rings, at most 2 px outwards).
     int extra;
     if (!fit_profile) {
+      const double m1 = rings_sum.sum_in[0] / rings_sum.n_in[0], m2 = rings_sum.sum_in[1] / rings_sum.n_in[1];
       extra = std::min(2, static_cast<int>(std::floor(m1 / (m2 - m1))));  // round(m1/slope - 1/2)
     } else {
-      RimProfile prof;
-      for (int j = 0; j < kMaxRings && n_in[j] >= 10; ++j) {
-        const double mj = sum_in[j] / n_in[j];
-        if (j >= 4 && mj > 0.25 * depth99_mm) break;
-        prof.x.push_back(j + 0.5), prof.m.push_back(mj);
-      }
-      if (prof.x.size() < 4) continue;
-      for (int k = 0; k < kMaxRings && n_out[k] >= 10; ++k)
-        prof.x.push_back(-(k + 0.5)), prof.m.push_back(sum_out[k] / n_out[k]);
+      const RimProfile prof = WallProfile(rings_sum, depth99_mm);
+      if (prof.x.empty()) continue;
       // Ring k outside (its centre k - 1/2 px beyond the outline) lies in the opening while k - 1/2 < gap.
       extra = std::min(std::max(2, band / 4), static_cast<int>(std::lround(OpeningEdgeGapPx(prof, band / 4 + 2.5))));
     }

@@ -31,11 +31,14 @@ cv::Mat PixelAreaOnRoad(const RoadRelief& relief, const StereoGeometry& geometry
 /// shallow outer part, below the per-pixel noise). `raw_depth_below_mm` (optional, CV_32F): the
 /// unsmoothed depth below the quadratic road model (EvaluateRoadModel's), on which the rim is
 /// found (the relief's correction_mm applied here; its per-pixel noise measured on the ring):
-/// the relief's smoothing spreads a wall's depth beyond the rim. Last, where rows are not
-/// foreshortened (e < 1.5), the outline is extended to where the wall meets the road: the ring
-/// means inside and outside fitted by c + a·max(0, x + gap)^p, p in [1, 2] (a sharp or a
-/// tangential edge); first order (the two inner rings' slope) where the per-pixel noise sets
-/// the threshold (there the profile is the stereo matcher's blur).
+/// the relief's smoothing spreads a wall's depth beyond the rim. Last, the outline is extended to
+/// where the wall meets the road: the ring means inside and outside fitted by
+/// c + a·max(0, x + gap)^p, p in [1, 2] (a sharp or a tangential edge); first order (the two
+/// inner rings' slope) where the per-pixel noise sets the threshold (there the profile is the
+/// stereo matcher's blur). In oblique views (e >= 1.5) per side along image scanlines: the far
+/// side along columns, the lateral sides along rows, the near side only where its edge is no
+/// occluding one (the edge pixel within the wall's outer quarter); nothing where the matcher's
+/// noise (ring differences one smoothing window apart) sets the threshold.
 void ExtendToRim(cv::Mat& labels, const RoadRelief& relief, double rim_depth_m, double rim_depth_fraction = 0,
                  int ring_window_px = 0, const std::vector<double>& row_elongation = {},
                  const cv::Mat& raw_depth_below_mm = cv::Mat());
