@@ -54,6 +54,32 @@ double SeenDepthAt(const std::vector<std::pair<double, double>>& seen, double x)
   return x1 - x0 > 1e-12 ? d0 + (d1 - d0) * (x - x0) / (x1 - x0) : d1;
 }
 
+// The far wall's mean slope (depth gained per metre towards the centre) over the seen points
+// from x_grazing on whose depth lies in [lo, hi]: least squares of depth on position. NaN with
+// fewer than three points.
+double FarWallSlope(const std::vector<std::pair<double, double>>& seen, double x_grazing, double lo_m, double hi_m) {
+  double n = 0, sx = 0, sd = 0, sxx = 0, sxd = 0;
+  for (const auto& [x, d] : seen) {
+    if (x < x_grazing || d < lo_m || d > hi_m) continue;
+    n += 1, sx += x, sd += d, sxx += x * x, sxd += x * d;
+  }
+  const double var = sxx - sx * sx / std::max(n, 1.0);
+  if (n < 3 || var < 1e-12) return kUnknown;
+  return -(sxd - sx * sd / n) / var;
+}
+
+// How the seen far wall runs into the shadow, pooled over a detection's strips (medians): its
+// mean slope over the middle (30-70 % of the grazing depth) and the lower part (70-100 %).
+// Only a wall steeper than the rays over the rim (`ray_slope`) is read: mirrored onto the near
+// side, a shallower one would hide no floor, so it is not the wall but the disparity's smoothing
+// of it (car, our disparity: far walls at 0.03-0.29 under rays at 0.21-0.34, exact disparity
+// 0.7-2.4).
+struct WallTrend {
+  double mid = kUnknown, low = kUnknown, ray_slope = kUnknown;
+  /// The slope declines towards the grazing point: where it reaches zero is a floor.
+  bool Declining() const { return mid > ray_slope && low >= 0 && low < mid; }
+};
+
 // The hidden stretch of one strip completed: the area under the estimated profile over [0, L]
 // behind the rim, and its deepest point. Assumption (docs/stages/damage.md "Hidden floors"): a
 // pothole is a bowl, symmetric along the strip about the opening's centre c (its ends x_near,
@@ -61,22 +87,34 @@ double SeenDepthAt(const std::vector<std::pair<double, double>>& seen, double x)
 // deep as the seen point at 2c − x on the far wall. Where that mirror point is hidden too (the
 // shadow reaches past the centre: the floor is hidden) the bowl is the circle through the two
 // rims and the grazing point (where the grazing rays meet the far wall, depth d): the one
-// bowl these three seen points fix, exact for a spherical cap. Every estimate is kept deeper
-// than the shadow line (a hidden point lies below the grazing ray) and no deeper than `hi(s)`,
-// the bound at distance s behind the rim.
+// bowl these three seen points fix, exact for a spherical cap. Where the far wall's slope
+// already declines towards the grazing point (`trend`), the floor is no deeper than where that
+// decline reaches zero slope: the slope² taken linear in depth (a smooth floor is locally a
+// parabola, of constant curvature), continued from the grazing point to its vertex and flat
+// beyond; the completion takes the shallower of the two. Every estimate is kept deeper than
+// the shadow line (a hidden point lies below the grazing ray) and no deeper than `ceiling_m`
+// (the strip's depth bound).
 struct Completion {
   double area_m2 = 0;  ///< ∫ depth over the hidden stretch (per metre of width)
   double max_depth_m = 0;
 };
-template <class UpperFn>
 Completion CompleteHidden(const std::vector<std::pair<double, double>>& seen, double x_rim, double tan_e,
-                          double seen_depth_m, double x_near, double x_far, UpperFn hi) {
+                          double seen_depth_m, double x_near, double x_far, const WallTrend& trend, double ceiling_m) {
   constexpr int kSteps = 64;
   Completion c;
   const double length = seen_depth_m / tan_e, x_grazing = x_rim + length, centre = (x_near + x_far) / 2;
   const double half = (x_far - x_near) / 2, t_grazing = x_grazing - centre;
   // The circle through (±half, 0) and (t_grazing, d): centre `k` above the road, radius² = half² + k².
   const double k = (half * half - t_grazing * t_grazing - seen_depth_m * seen_depth_m) / (2 * seen_depth_m);
+  // The far wall continued: the band slopes stand at 50 % and 85 % of d, so the curvature is
+  // (mid² − low²) / (2 · 0.35 d) and the slope at the grazing point follows from the low band's.
+  double curvature = 0, slope_g = 0, floor_m = 1e300, run_m = 0;
+  if (trend.Declining()) {
+    curvature = (trend.mid * trend.mid - trend.low * trend.low) / (2 * 0.35 * seen_depth_m);
+    slope_g = std::sqrt(std::max(0.0, trend.low * trend.low - 2 * curvature * 0.15 * seen_depth_m));
+    run_m = slope_g / curvature;  // from the grazing point to the vertex
+    floor_m = seen_depth_m + slope_g * run_m / 2;
+  }
   for (int i = 0; i < kSteps; ++i) {
     const double s = (i + 0.5) * length / kSteps, x = x_rim + s, mirror = 2 * centre - x;
     double d;
@@ -85,8 +123,11 @@ Completion CompleteHidden(const std::vector<std::pair<double, double>>& seen, do
     } else {  // x and its mirror both hidden: |x − c| < t_grazing
       const double t = x - centre;
       d = std::sqrt(std::max(0.0, half * half + k * k - t * t)) - k;
+      const double tau = t_grazing - std::abs(t);  // towards the centre from the grazing point
+      if (trend.Declining())
+        d = std::min(d, tau >= run_m ? floor_m : seen_depth_m + tau * (slope_g - curvature * tau / 2));
     }
-    d = std::min(std::max(d, s * tan_e), hi(s));
+    d = std::min(std::max(d, s * tan_e), ceiling_m);
     c.area_m2 += d * length / kSteps;
     c.max_depth_m = std::max(c.max_depth_m, d);
   }
@@ -221,6 +262,22 @@ FloorVisibility AnalyseFloorVisibility(const cv::Mat& labels, int id, const cv::
   const double rim_seen_m = 0.05 * max_depth_m;  // the openings' ends: the same depth on both sides
   for (const RayPoint& p : pts)
     if (std::isfinite(p.depth_m)) strip_of(p).seen.emplace_back(p.x + p.depth_m / p.tan_e, p.depth_m);
+  // The far wall's trend, pooled over the strips (one strip's wall is a handful of rows).
+  std::vector<double> mids, lows;
+  for (Strip& st : strips) {
+    const double d = st.shadow_edge_depth_m;
+    if (!(d > 0) || !(st.tan_rim > 0)) continue;
+    std::sort(st.seen.begin(), st.seen.end());
+    const double x_grazing = st.x_rim + d / st.tan_rim;
+    const double mid = FarWallSlope(st.seen, x_grazing, 0.3 * d, 0.7 * d), low = FarWallSlope(st.seen, x_grazing, 0.7 * d, d);
+    if (mid > 0 && std::isfinite(low)) mids.push_back(mid), lows.push_back(low);
+  }
+  WallTrend trend;
+  if (!mids.empty()) {
+    std::nth_element(mids.begin(), mids.begin() + mids.size() / 2, mids.end());
+    std::nth_element(lows.begin(), lows.begin() + lows.size() / 2, lows.end());
+    trend.mid = mids[mids.size() / 2], trend.low = lows[lows.size() / 2], trend.ray_slope = tan_rim;
+  }
   double bound = 0, hidden_volume = 0, longest = 0, completed_volume = 0;
   std::vector<double> strip_max;  // completed max depth per strip with a shadow (in strip order)
   for (Strip& st : strips) {
@@ -236,12 +293,14 @@ FloorVisibility AnalyseFloorVisibility(const cv::Mat& labels, int id, const cv::
 
     // The estimate: the opening's ends on the road where the seen surface is 5 % of the max
     // depth deep (the near one no farther than the rim).
-    std::sort(st.seen.begin(), st.seen.end());
     double x_near = st.x_rim, x_far = st.x_rim + length;
     for (const auto& [x, depth] : st.seen)
       if (depth >= rim_seen_m) x_near = std::min(x_near, x), x_far = std::max(x_far, x);
-    const auto hi = [&](double s_m) { return std::min({slope * s_m, d + slope * (length - s_m), upper}); };
-    const Completion c = CompleteHidden(st.seen, st.x_rim, st.tan_rim, d, x_near, x_far, hi);
+    // The estimate's ceiling is the depth bound alone, not the bound's V: the near wall follows
+    // the mirrored far wall even where that is steeper than the bound's slope (an assumption
+    // made for a safe interval; the mirror is what the frame shows; held to 45° the exact
+    // 120 mm cap of the tests lost 14 % of its volume). The volume is capped below.
+    const Completion c = CompleteHidden(st.seen, st.x_rim, st.tan_rim, d, x_near, x_far, trend, upper);
     // The measured volume already holds the shadow triangle d·L/2 (HiddenExtraArea).
     completed_volume += strip_m * std::max(0.0, c.area_m2 - d * length / 2);
     strip_max.push_back(c.max_depth_m);
@@ -253,6 +312,8 @@ FloorVisibility AnalyseFloorVisibility(const cv::Mat& labels, int id, const cv::
   if (!out.floor_visible || hidden_volume > 0.05 * volume_m3)
     out.volume_upper_m3 = volume_m3 + hidden_volume + volume_noise;
   out.volume_estimate_m3 = volume_m3 + completed_volume;
+  if (std::isfinite(out.volume_upper_m3))  // the estimate stays inside the stated interval
+    out.volume_estimate_m3 = std::min(out.volume_estimate_m3, out.volume_upper_m3);
   if (!out.floor_visible) {
     out.max_depth_bound_m = std::max(bound, max_depth_m + 2 * sigma_depth_m);
     // The deepest completed strip, as the median of three neighbours (one strip's rims, a row

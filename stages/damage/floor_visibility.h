@@ -33,9 +33,10 @@ struct FloorVisibility {
   /// rim): the volume with the shadow filled to the bound (a seen floor caps it), +2 σ; else NaN.
   double volume_upper_m3 = kUnknown;
   /// Best estimates: the seen profile completed behind the near rim, per strip along the view,
-  /// by the mirror image of the seen far wall about the opening's centre (the floor, where the
-  /// mirror is hidden too, continued from the far wall's slope), kept between the shadow line
-  /// and the bound. Equal to the measured values where nothing is hidden.
+  /// by the mirror image of the seen far wall about the opening's centre (where the mirror is
+  /// hidden too: the circle through both rims and the grazing point, no deeper than where the
+  /// far wall's declining slope reaches zero), kept between the shadow line and the bounds.
+  /// Equal to the measured values where nothing is hidden.
   double max_depth_estimate_m = kUnknown;
   double volume_estimate_m3 = kUnknown;
 };

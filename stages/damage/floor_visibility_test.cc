@@ -10,6 +10,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <random>
 #include <vector>
 
 namespace rs {
@@ -117,9 +118,10 @@ DamageInstance Check(const Case& c, bool expect_visible) {
 
 // The estimate against the exact cap: volume within `volume_tol` (relative), max depth within
 // `depth_tol_m`, where what the frame sees (the old volume_m3 / max_depth_m) misses the same
-// tolerance (the test of the completion, not of the measurement). Measured (session 6): 80 mm
-// cap 81.9 mm, −6.7 % (seen 59 mm, −44 %); 120 mm cap 120.9 mm, −14.4 % (seen 77 mm, −54 %:
-// close to the 15 % bound; the area is −3 %); wedge case −3.7 % (seen −9.0 %, area −3.5 %).
+// tolerance (the test of the completion, not of the measurement). Measured (session 8): 80 mm
+// cap 81.9 mm, −4.5 % (seen 59 mm, −43 %); 120 mm cap 122.3 mm, −5.9 % (seen 77 mm, −54 %;
+// −14.2 % while the near wall was held to the 45° bound's slope, hence its 10 % here); wedge
+// case −3.3 % (seen −8.8 %, area +0.7 %).
 void ExpectEstimate(const Case& c, const DamageInstance& d, double volume_tol, double depth_tol_m) {
   const double v = Scene(c).TrueVolumeM3();
   std::printf("  estimate: depth %.1f mm (seen %.1f, true %.1f), volume %.6f (seen %.6f, true %.6f): %+.1f %% (seen %+.1f %%), "
@@ -138,7 +140,7 @@ TEST(FloorVisibility, CarDeepCapHidden) {
 }
 TEST(FloorVisibility, CarDeeperCapNearerHidden) {
   const Case c{1.5, 15, 0.12, 0.15, 5.0};
-  ExpectEstimate(c, Check(c, false), 0.15, 0.010);
+  ExpectEstimate(c, Check(c, false), 0.10, 0.010);
 }
 // A wide cap whose floor the car sees, but not the near wall's wedge behind the rim.
 TEST(FloorVisibility, CarWideCapWedge) {
@@ -150,6 +152,116 @@ TEST(FloorVisibility, CarShallowCapSeen) { Check({1.5, 15, 0.025, 0.3, 5.0}, tru
 // The deep cap seen steeply (45° pitch at 2.2 m, and a drone 4 m up pitched 80°): nothing hidden.
 TEST(FloorVisibility, SteepViewSeen) { Check({1.5, 45, 0.08, 0.15, 2.2}, true); }
 TEST(FloorVisibility, NadirSeen) { Check({4.0, 80, 0.10, 0.15, 4.0}, true); }
+
+// A flat-floored pothole (a pan): floor `depth_m` deep out to `floor_radius_m`, then a wall
+// rising as a raised cosine to the rim at `radius_m` (leaving the floor and meeting the road
+// tangentially), ray-traced exactly in SyntheticRoadScene's camera frame (camera 1.5 m high,
+// pitched 15°, the rim's centre on the image's centre column at camera depth `z_m`). Its floor
+// is fuller than any cap's: the circle completion alone overshoots its depth where the far wall
+// already levels out towards the floor.
+struct Pan {
+  double depth_m, radius_m, floor_radius_m, z_m;
+  double DepthAt(double rho) const {
+    if (rho >= radius_m) return 0;
+    if (rho <= floor_radius_m) return depth_m;
+    return depth_m * 0.5 * (1 + std::cos(CV_PI * (rho - floor_radius_m) / (radius_m - floor_radius_m)));
+  }
+  double VolumeM3() const {  // ∫ 2πρ depth dρ
+    constexpr int kSteps = 4000;
+    double v = 0;
+    for (int i = 0; i < kSteps; ++i) {
+      const double rho = (i + 0.5) * radius_m / kSteps;
+      v += 2 * CV_PI * rho * DepthAt(rho) * radius_m / kSteps;
+    }
+    return v;
+  }
+};
+
+struct PanFrame {
+  cv::Mat disparity;
+  StereoGeometry geometry;
+  double visible_depth_m = 0;  ///< deepest point any pixel sees
+};
+
+PanFrame RenderPan(const Pan& pan) {
+  const double height_m = 1.5, th = 15 * CV_PI / 180;
+  PanFrame out;
+  out.geometry = Scene({height_m, 15, 0.05, 0.2, pan.z_m}).geometry;
+  const StereoGeometry& g = out.geometry;
+  const Eigen::Vector3d up(0, -std::cos(th), -std::sin(th)), e1 = Eigen::Vector3d::UnitX(), e2 = up.cross(e1);
+  const double yz = (-height_m / pan.z_m - up.z()) / up.y();
+  const Eigen::Vector3d c0 = pan.z_m * Eigen::Vector3d(0, yz, 1);
+  std::mt19937 rng(3);
+  std::normal_distribution<double> noise(0.0, 0.02);
+  out.disparity = cv::Mat(720, 1280, CV_32F);
+  for (int v = 0; v < out.disparity.rows; ++v)
+    for (int u = 0; u < out.disparity.cols; ++u) {
+      const Eigen::Vector3d r((u - g.cx_px) / g.f_px, (v - g.cy_px) / g.f_px, 1.0);
+      const double ur = up.dot(r);
+      float& d = out.disparity.at<float>(v, u);
+      if (ur >= -1e-9) {
+        d = 0;
+        continue;
+      }
+      const double z_road = -height_m / ur;
+      // Below-plane depth of the ray at camera depth Z minus the surface's depth under it:
+      // positive once the ray has met the surface.
+      auto inside = [&](double z) {
+        const Eigen::Vector3d q = z * r - c0;
+        return (z - z_road) * -ur - pan.DepthAt(std::hypot(e1.dot(q), e2.dot(q)));
+      };
+      double z = z_road;
+      if (inside(z_road + 1e-9) < 0) {  // the ray enters the pan: march to the surface, then bisect
+        double lo = z_road, hi = z_road;
+        while (inside(hi) < 0) lo = hi, hi += 0.0005;
+        for (int i = 0; i < 30; ++i) (inside(0.5 * (lo + hi)) < 0 ? lo : hi) = 0.5 * (lo + hi);
+        z = hi;
+        out.visible_depth_m = std::max(out.visible_depth_m, (z - z_road) * -ur);
+      }
+      d = static_cast<float>(g.f_px * g.baseline_m / z + noise(rng));
+    }
+  return out;
+}
+
+// The pan's single detection (DetectDamage calls the analysis).
+DamageInstance DetectPan(const Pan& pan, double* visible_depth_m) {
+  const PanFrame f = RenderPan(pan);
+  *visible_depth_m = f.visible_depth_m;
+  const FrameDamage damage = DetectDamage(f.disparity, cv::Mat(), f.geometry, DamageOptions());
+  EXPECT_EQ(damage.instances.size(), 1u);
+  if (damage.instances.empty()) return {};
+  const DamageInstance& d = damage.instances[0];
+  std::printf("pan %.0f mm / %.0f mm (floor %.0f) at %.1f m: visible %.1f, seen %.1f, estimate %.1f mm (bound %.1f), "
+              "floor %s; volume %.6f (seen %.6f, upper %.6f, true %.6f): %+.1f %% (seen %+.1f %%), area %+.1f %%\n",
+              pan.depth_m * 1000, pan.radius_m * 1000, pan.floor_radius_m * 1000, pan.z_m, f.visible_depth_m * 1000,
+              d.max_depth_seen_m * 1000, d.max_depth_m * 1000, d.max_depth_bound_m * 1000,
+              d.floor_visible ? "seen" : "hidden", d.volume_m3, d.volume_seen_m3, d.volume_upper_m3, pan.VolumeM3(),
+              100 * (d.volume_m3 / pan.VolumeM3() - 1), 100 * (d.volume_seen_m3 / pan.VolumeM3() - 1),
+              100 * (d.area_m2 / (CV_PI * pan.radius_m * pan.radius_m) - 1));
+  return d;
+}
+
+// Pans whose grazing rays meet the far wall where it levels out onto the floor (the floor
+// shows over a row or two, so the stage says hidden): the far wall's slope declines towards the
+// grazing point, and the floor lies where that decline reaches zero. The circle through rims and
+// grazing point alone went on down (80 mm pan: 98.4 mm, 100 mm pan: 151.8 mm, session 7).
+void ExpectPanEstimate(const Pan& pan) {
+  double visible_m = 0;
+  const DamageInstance d = DetectPan(pan, &visible_m);
+  EXPECT_GT(visible_m, pan.depth_m - 0.005) << "test case does not show what it is meant to";
+  EXPECT_FALSE(d.floor_visible);
+  EXPECT_LE(d.max_depth_seen_m - 2 * d.sigma_depth_m, pan.depth_m);  // the interval holds the truth
+  EXPECT_GE(d.max_depth_bound_m, pan.depth_m);
+  EXPECT_GE(d.volume_upper_m3, pan.VolumeM3());
+  EXPECT_GE(d.max_depth_m, d.max_depth_seen_m);  // the estimate lies inside it
+  EXPECT_LE(d.max_depth_m, d.max_depth_bound_m);
+  EXPECT_LE(d.volume_m3, d.volume_upper_m3);
+  EXPECT_NEAR(d.max_depth_m, pan.depth_m, 0.010);
+  EXPECT_NEAR(d.volume_m3, pan.VolumeM3(), 0.15 * pan.VolumeM3());
+  EXPECT_GT(std::abs(d.volume_seen_m3 - pan.VolumeM3()), 0.15 * pan.VolumeM3()) << "the seen volume alone would pass";
+}
+TEST(FloorVisibility, CarPanFloorLevelsOut) { ExpectPanEstimate({0.08, 0.20, 0.12, 5.0}); }
+TEST(FloorVisibility, CarDeepPanFloorLevelsOut) { ExpectPanEstimate({0.10, 0.20, 0.14, 5.0}); }
 
 // The frame's disparity smoothed along the image columns over `rows` rows, as a matching
 // window and its aggregation smooth it (our SGM disparity spread the near rim's step of car
