@@ -96,6 +96,15 @@ std::vector<cv::Point> OutlineOf(const cv::Mat& labels, int id, const cv::Rect& 
 
 namespace {
 
+// Robust σ of a zero-centred sample from its absolute values: 1.4826 · their median (`a` is
+// reordered; not empty).
+template <class T>
+double SigmaOfAbsolute(std::vector<T>& a) {
+  const auto mid = a.begin() + static_cast<std::ptrdiff_t>(a.size() / 2);
+  std::nth_element(a.begin(), mid, a.end());
+  return 1.4826 * *mid;
+}
+
 // Distance (CV_32F) of every non-zero pixel of `mask` to its nearest zero pixel, in road units of
 // one column's width: a row counts `rows_per_px` (the road length of a pixel along the column
 // over its width across, rounded; 1 = square pixels). The mask is stretched row-wise, the
@@ -138,10 +147,7 @@ bool FitDepthPlane(const std::vector<cv::Point3f>& pts, double c[3], double* sig
     std::vector<double> res;
     for (const cv::Point3f& p : pts)
       if (const double r = residual(p); r <= 0) res.push_back(-r);
-    if (res.size() < 10) return 0.0;
-    auto mid = res.begin() + res.size() / 2;
-    std::nth_element(res.begin(), mid, res.end());
-    return 1.4826 * *mid;
+    return res.size() < 10 ? 0.0 : SigmaOfAbsolute(res);
   };
   if (!solve(0)) return false;
   for (int it = 0; it < 3; ++it) {
@@ -460,11 +466,7 @@ void ExtendToRim(cv::Mat& labels, const RoadRelief& r, double rim_depth_m, doubl
       for (size_t i = 0; i < ring.size(); ++i)
         if (std::isfinite(ring_raw[i]))
           res.push_back(std::abs(ring_raw[i] - static_cast<float>(plane[0] + plane[1] * ring[i].x + plane[2] * ring[i].y)));
-      if (res.size() >= 20) {
-        auto mid = res.begin() + res.size() / 2;
-        std::nth_element(res.begin(), mid, res.end());
-        pixel_sigma = 1.4826 * *mid;
-      }
+      if (res.size() >= 20) pixel_sigma = SigmaOfAbsolute(res);
     }
     const double noise_mm = std::max(floor_mm, 3.0 * pixel_sigma);  // per pixel: above the noise too
     // The outline follows the depth, not the segmentation's superpixels: the instance's outer
@@ -604,11 +606,7 @@ void ExtendToRim(cv::Mat& labels, const RoadRelief& r, double rim_depth_m, doubl
           diff.push_back(std::abs(d));
       }
       double pair_sigma = pixel_sigma;
-      if (diff.size() >= 20) {
-        auto mid = diff.begin() + diff.size() / 2;
-        std::nth_element(diff.begin(), mid, diff.end());
-        pair_sigma = 1.4826 * *mid / std::sqrt(2.0);
-      }
+      if (diff.size() >= 20) pair_sigma = SigmaOfAbsolute(diff) / std::sqrt(2.0);
       if (3 * pair_sigma < floor_mm)
         ExtendObliqueSides(lab, id, in0, rim_depth, obstacle, dist, band, level, pair_sigma, ring_window_px, depth99_mm,
                            e, far_up(boxes[id]));
