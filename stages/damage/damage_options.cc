@@ -26,6 +26,7 @@ void RoadModelOptions::Check() const {
   Require(relief_smooth_edge_sigma >= 0, "relief_smooth_edge_sigma", relief_smooth_edge_sigma, ">=", "0", 0);
   Require(max_depth_sigma_m >= 0, "max_depth_sigma_m", max_depth_sigma_m, ">=", "0", 0);
   Require(min_range_factor >= 1, "min_range_factor", min_range_factor, ">=", "1", 1);
+  Require(min_region_m2 >= 0, "min_region_m2", min_region_m2, ">=", "0", 0);
 }
 
 const OptionTable<RoadModelOptions>& RoadModelOptions::Table() {
@@ -52,7 +53,10 @@ const OptionTable<RoadModelOptions>& RoadModelOptions::Table() {
       .Min(0)
       .Add("min_range_factor", &O::min_range_factor,
            "the analysed range reaches at least this multiple of the frame's nearest road depth")
-      .Min(1);
+      .Min(1)
+      .Add("min_region_m2", &O::min_region_m2,
+           "connected road regions smaller than this are not road: mismatched islands on obstacles (0 = off)", "m2")
+      .Min(0);
   return table;
 }
 
@@ -64,6 +68,8 @@ void SegmentOptions::Check() const {
   Require(slic_region_size_px == 0 || slic_region_size_px >= 4, "slic_region_size_px", slic_region_size_px, ">=",
           "4 (or 0 = off)", 4);
   Require(noise_cell_px == 0 || noise_cell_px >= 4, "noise_cell_px", noise_cell_px, ">=", "4 (or 0 = off)", 4);
+  Require(seed_noise_sigma == 0 || seed_noise_sigma >= min_threshold_sigma, "seed_noise_sigma", seed_noise_sigma,
+          ">=", "min_threshold_sigma (or 0 = off)", min_threshold_sigma);
   Require(edge_min_gradient >= 0, "edge_min_gradient", edge_min_gradient, ">=", "0", 0);
   Require(edge_margin_px >= 0, "edge_margin_px", edge_margin_px, ">=", "0", 0);
   Require(slic_ruler > 0, "slic_ruler", slic_ruler, ">", "0", 0);
@@ -83,6 +89,9 @@ const OptionTable<SegmentOptions>& SegmentOptions::Table() {
       .Add("min_threshold_sigma", &O::min_threshold_sigma, "threshold at least this many σ below the road").Above(0)
       .Add("max_threshold_sigma", &O::max_threshold_sigma, "threshold at most this many σ below the road").Above(0)
       .Add("noise_cell_px", &O::noise_cell_px, "calibrated: cell of the local noise map thresholds are counted in (0 = one global σ)", "px").Min(0)
+      .Add("seed_noise_sigma", &O::seed_noise_sigma,
+           "calibrated: pixels this many local σ below the road seed a region whatever the frame's threshold (0 = off)")
+      .Min(0)
       .Add("edge_min_gradient", &O::edge_min_gradient,
            "calibrated: pixels near image steps this strong (blurred, grey levels/px; paint edges) get their own local noise (0 = off)")
       .Min(0)

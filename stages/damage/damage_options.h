@@ -42,6 +42,11 @@ struct RoadModelOptions {
   /// 2nd-percentile depth of the frame): a high or low-resolution nadir camera, whose whole
   /// road lies beyond the σ_Z limit, still has its road analysed (σ_Z is reported per damage).
   double min_range_factor = 1.5;
+  /// Connected road regions (valid, not obstacle) smaller than this on the road are not road:
+  /// islands of mismatched disparity on an untextured obstacle that land within the road band
+  /// and read as deep "depressions" on a parked car (road_islands.h): depressions on them are
+  /// removed after the segmentation and the crack search skips them; 0 = off, m².
+  double min_region_m2 = 1.0;
   void Check() const;
   static const OptionTable<RoadModelOptions>& Table();
 };
@@ -53,6 +58,10 @@ struct SegmentOptions {
   /// Calibrated: cell of the local noise map (LocalReliefNoise): thresholds count in the σ of the
   /// region a pixel lies in, not one σ for the frame (stereo noise is not stationary), px; 0 = global σ.
   int noise_cell_px = 96;
+  /// Calibrated, with the local noise map: a pixel at least this many local σ below the road seeds a
+  /// region whatever the frame's threshold (deep potholes elsewhere raise that to 13–14 σ and lost
+  /// 35–48 mm ones at 6 m that stand 8+ σ out where they lie; the pothole noise rule's own k); 0 = off.
+  double seed_noise_sigma = 8.0;
   /// Calibrated, with the left image and noise_cell_px > 0: pixels near strong intensity steps
   /// (paint edges; StrongEdgeMask), where the matcher may err by more than shallow damage, get
   /// their own local noise estimate: blurred gradient at least this many grey levels per px (0 = off) ...

@@ -7,7 +7,9 @@
 #include "stages/damage/measure.h"
 #include "stages/damage/relief_noise.h"
 #include "stages/damage/relief_smooth.h"
+#include "stages/damage/road_islands.h"
 #include "stages/damage/severity.h"
+#include "stages/damage/sharp_disparity.h"
 #include "stages/damage/two_sided_noise.h"
 
 #include <nlohmann/json.hpp>
@@ -80,7 +82,7 @@ double NearestDepthM(const cv::Mat& disparity_px, const StereoGeometry& g) {
 }
 
 FrameDamage DetectDamage(const cv::Mat& input_disparity_px, const cv::Mat& left_image, const StereoGeometry& g,
-                         const DamageOptions& o) {
+                         const DamageOptions& o, const cv::Mat& sharp_disparity_px) {
   o.Check();
   if (!left_image.empty() && left_image.size() != input_disparity_px.size())
     throw std::invalid_argument("DetectDamage: left image and disparity differ in size");
@@ -115,6 +117,10 @@ FrameDamage DetectDamage(const cv::Mat& input_disparity_px, const cv::Mat& left_
                      RoadRowElongation(disparity_px.rows, g, f.surface.normal)};
   const cv::Mat area = PixelAreaOnRoad(f.relief, g, f.surface);
   cv::sqrt(area, pixel_size);  // metres per pixel on the road (NaN off-road)
+  // Patches of "road" cut off from the road by obstacle and unmatched pixels are mismatches on
+  // an obstacle (road_islands.h): no damage is found on them.
+  const cv::Mat islands = RoadIslandMask(relief.valid, area, o.road.min_region_m2);
+  const bool has_islands = cv::countNonZero(islands) > 0;
   // The crack response needs the pixel sizes (element sized on the road): alongside the segmentation.
   if (want_cracks) image_work.run([&] { crack_response = CrackResponse(left_image, o.crack, pixel_size); });
   const ReliefScale scale = EstimateReliefScale(relief);
@@ -155,6 +161,9 @@ FrameDamage DetectDamage(const cv::Mat& input_disparity_px, const cv::Mat& left_
   // they border: a parked car beside a false depression became a 15 m² "pothole" (obstacles
   // preset, truth disparity).
   f.labels.setTo(0, f.relief.obstacle_mask);
+  // Islands likewise, after the segmentation (the noise maps keep them, as before): a
+  // depression mostly on one goes whole, with the unmatched pixels it took in.
+  if (has_islands) RemoveIslandLabels(f.labels, islands, relief.valid);
   f.threshold_sigma = seg.threshold_sigma;
   if (o.road.local_cell_px > 0 && seg.count > 0) {
     // The local road correction, recomputed without the found depressions (grown by half a
@@ -200,7 +209,12 @@ FrameDamage DetectDamage(const cv::Mat& input_disparity_px, const cv::Mat& left_
       for (int u = 0; u < road_noise.cols; ++u) m[u] = std::max(rn[u], sp[u] * k);
     });
   }
-  f.instances = MeasureDepressions(f.labels, f.relief, g, f.surface, o.measure, measure_noise);
+  // The volume is summed on the disparity stage's sharp image where given (sharp_disparity.h).
+  const cv::Mat sharp_depth_mm =
+      sharp_disparity_px.empty()
+          ? cv::Mat()
+          : SharpDepthBelowMm(sharp_disparity_px, disparity_px, f.labels, g, f.surface, f.relief.correction_mm);
+  f.instances = MeasureDepressions(f.labels, f.relief, g, f.surface, o.measure, measure_noise, sharp_depth_mm);
   // Oblique views: may the near rim hide the floor (depth and volume then lower bounds)?
   AnalyseFloorVisibility(f.instances, f.labels, f.relief, g, f.surface, o.measure);
   f.ms_measure = MsSince(t0);
@@ -208,8 +222,9 @@ FrameDamage DetectDamage(const cv::Mat& input_disparity_px, const cv::Mat& left_
   if (o.crack.enabled && !left_image.empty()) {
     t0 = std::chrono::steady_clock::now();
     image_work.wait();
-    // relief.valid: the road mask (valid, not obstacle); RefineRoadRelief changes neither mask.
-    const CrackDetection cracks = DetectCracks(left_image, relief.valid, f.labels != 0, pixel_size, o.crack, crack_response);
+    // relief.valid: the road mask (valid, not obstacle), here without its islands; RefineRoadRelief changes neither mask.
+    const cv::Mat crack_road = has_islands ? cv::Mat(relief.valid & (islands == 0)) : relief.valid;
+    const CrackDetection cracks = DetectCracks(left_image, crack_road, f.labels != 0, pixel_size, o.crack, crack_response);
     AddCracks(cracks, f.labels, f.instances);
     f.ms_cracks = MsSince(t0);
   }

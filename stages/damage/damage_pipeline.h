@@ -48,10 +48,12 @@ double NearestDepthM(const cv::Mat& disparity_px, const StereoGeometry& geometry
 
 /// Road model, transformed disparity, depressions (measured on the road model) and, when
 /// `left_image` is given, cracks; every instance graded. `disparity_px`: CV_32F, ≤ 0 invalid;
-/// disparities beyond AnalysedRangeM are ignored.
+/// disparities beyond AnalysedRangeM are ignored. `sharp_disparity_px` (optional, CV_32F of the
+/// same size): the disparity stage's second image (its small refinement window alone), on which
+/// the volumes are summed (sharp_disparity.h); empty = the one image throughout.
 /// Throws std::invalid_argument on bad inputs or options.
 FrameDamage DetectDamage(const cv::Mat& disparity_px, const cv::Mat& left_image, const StereoGeometry& geometry,
-                         const DamageOptions& options);
+                         const DamageOptions& options, const cv::Mat& sharp_disparity_px = cv::Mat());
 
 /// Segmentation of an 8/16-bit or float transformed-disparity image with unknown scale
 /// (road level and σ estimated robustly unless `scale` is given). Instances carry pixel

@@ -82,10 +82,14 @@ void DamageStage::Run(StageContext& ctx, const DamageStageOptions& o) const {
         if (fs::exists(in_dir / "skipped.json"))
           throw InputError(InputLocation::File((in_dir / "skipped.json").string()), "no disparity (frame skipped)");
         const cv::Mat disparity = ReadKittiDisparity(in_dir / "disparity.png");
+        // The disparity stage's second image (its small refinement window alone), where it wrote
+        // one: the volumes are summed on it.
+        const fs::path sharp_path = in_dir / "disparity_sharp.png";
+        const cv::Mat sharp = fs::exists(sharp_path) ? ReadKittiDisparity(sharp_path) : cv::Mat();
         const cv::Mat left = LoadGray8(f.left);
         FrameDamage result;
         try {
-          result = DetectDamage(disparity, left, geometry, o.damage);
+          result = DetectDamage(disparity, left, geometry, o.damage, sharp);
         } catch (const std::invalid_argument& e) {
           // The algorithm rejects this frame's data (e.g. too few road points): a
           // counted skip with the reason, not a failed survey.

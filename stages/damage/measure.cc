@@ -1,5 +1,7 @@
 #include "stages/damage/measure.h"
 
+#include "stages/damage/scale_noise.h"
+
 #include <opencv2/imgproc.hpp>
 #include <tbb/parallel_for.h>
 
@@ -639,8 +641,9 @@ void ExtendToRim(cv::Mat& labels, const RoadRelief& r, double rim_depth_m, doubl
     }
     if (!WallSignificant(rings_sum, ring_sigma, ring_window_px)) continue;
     // Where the per-pixel noise sets the rim threshold (our disparity), the profile's shape near
-    // the outline is the stereo matcher's blur, not the wall's: its window spreads a wall's depth
-    // 3-5 px onto the road (0.1 m2 potholes at 4 m: 2.5-4.5 mm of depth 4 px outside the true
+    // the outline is the disparity's smoothing, not the wall's: mostly the disparity stage's 21x21
+    // smooth refinement window (not its 9x9 one), which spreads a wall's depth 3-8 px onto the
+    // road (0.1 m2 potholes at 4 m: 2.5-4.5 mm of depth 4 px outside the true
     // edge, area +13 to +21 %), a toe the power law read as a tangential wall (drone-low, our
     // disparity: area max 7.7 -> 10.2 %). There the first-order step stays (the outline's two
     // inner rings, at most 2 px outwards).
@@ -669,7 +672,8 @@ void ExtendToRim(cv::Mat& labels, const RoadRelief& r, double rim_depth_m, doubl
 }
 
 double CoreWidthM(const cv::Mat& labels, int id, const RoadRelief& r, const cv::Mat& pixel_area_m2,
-                  double min_depth_m, cv::Rect box) {
+                  double min_depth_m, cv::Rect box, double* width_px) {
+  if (width_px) *width_px = 0;
   cv::Rect roi = box.empty() ? cv::boundingRect(labels == id) : box;
   if (roi.empty()) return 0;
   roi = cv::Rect(roi.x - 1, roi.y - 1, roi.width + 2, roi.height + 2) & cv::Rect({}, labels.size());
@@ -678,24 +682,54 @@ double CoreWidthM(const cv::Mat& labels, int id, const RoadRelief& r, const cv::
   cv::Mat padded, dist;
   cv::copyMakeBorder(core, padded, 1, 1, 1, 1, cv::BORDER_CONSTANT, 0);
   cv::distanceTransform(padded, dist, cv::DIST_L2, cv::DIST_MASK_5);
-  double best = 0;
+  double best = 0, best_px = 0;
   for (int v = 0; v < core.rows; ++v) {
     const float* ar = pixel_area_m2.ptr<float>(roi.y + v) + roi.x;
     const float* dr = dist.ptr<float>(v + 1) + 1;
     for (int u = 0; u < core.cols; ++u) {
       const float a = ar[u], dpx = dr[u];
-      if (dpx > 0 && std::isfinite(a)) best = std::max(best, 2.0 * dpx * std::sqrt(double(a)));
+      if (dpx > 0 && std::isfinite(a) && 2.0 * dpx * std::sqrt(double(a)) > best)
+        best = 2.0 * dpx * std::sqrt(double(a)), best_px = 2.0 * dpx;
     }
   }
+  if (width_px) *width_px = best_px;
   return best;
 }
 
+namespace {
+
+// The pothole noise rule at the depression's own scale (MeasureScaleNoise): the window is the
+// square inscribed in its core (the half-max-depth part's largest circle, `core_px` wide), so
+// the deepest window mean is the floor's depth; it must be at least kMinScaleWindowPx, twice
+// the relief's own 7-px box and SGM's ~10-px wrong-winner patches, or the average adds little.
+// The road's window means are taken up to two of the noise map's 96-px cells around the box
+// (as TwoSidedReliefNoise's leave-one-out).
+constexpr int kMinScaleWindowPx = 15;
+constexpr int kScaleMarginPx = 192;
+
+bool ConfirmedAtScale(const cv::Mat& depth_below_mm, const cv::Mat& road, const cv::Mat& labels, int id,
+                      const cv::Rect& box, double core_px, const MeasureOptions& o) {
+  int window = static_cast<int>(core_px / std::sqrt(2.0));
+  window -= 1 - window % 2;  // odd: centred
+  if (window < kMinScaleWindowPx) return false;
+  const ScaleNoise sn =
+      MeasureScaleNoise(depth_below_mm, road, labels, id, box, window, kScaleMarginPx, o.spike_quantile, 0.0);
+  // NaN (too few road windows around it) compares false: not confirmed.
+  return sn.depth_mm >= o.pothole_min_noise_sigma * sn.sigma_mm &&
+         (o.pothole_min_spike_ratio <= 0 || sn.depth_mm >= o.pothole_min_spike_ratio * sn.spike_mm);
+}
+
+}  // namespace
+
 std::vector<DamageInstance> MeasureDepressions(const cv::Mat& labels, const RoadRelief& r, const StereoGeometry& g,
-                                               const RoadSurface& s, const MeasureOptions& o, const cv::Mat& noise_px) {
+                                               const RoadSurface& s, const MeasureOptions& o, const cv::Mat& noise_px,
+                                               const cv::Mat& volume_depth) {
   if (labels.type() != CV_16UC1 || labels.size() != r.depth_below_mm.size())
     throw std::invalid_argument("MeasureDepressions: labels must be CV_16U of the relief's size");
   if (!noise_px.empty() && (noise_px.type() != CV_32FC1 || noise_px.size() != labels.size()))
     throw std::invalid_argument("MeasureDepressions: noise_px must be CV_32F of the labels' size");
+  if (!volume_depth.empty() && (volume_depth.type() != CV_32FC1 || volume_depth.size() != labels.size()))
+    throw std::invalid_argument("MeasureDepressions: volume_depth_below_mm must be CV_32F of the labels' size");
   const double fb = g.f_px * g.baseline_m;
   o.Check();
   const cv::Mat area = PixelAreaOnRoad(r, g, s);
@@ -711,6 +745,7 @@ std::vector<DamageInstance> MeasureDepressions(const cv::Mat& labels, const Road
   for (int v = 0; v < labels.rows; ++v) {
     const uint16_t* l = labels.ptr<uint16_t>(v);
     const float* d = r.depth_below_mm.ptr<float>(v);
+    const float* dv = volume_depth.empty() ? d : volume_depth.ptr<float>(v);
     const float* a = area.ptr<float>(v);
     const float* z = r.road_depth_m.ptr<float>(v);
     for (int u = 0; u < labels.cols; ++u) {
@@ -730,13 +765,15 @@ std::vector<DamageInstance> MeasureDepressions(const cv::Mat& labels, const Road
         const double depth_m = d[u] / 1000.0;
         c.depth.push_back(depth_m);
         c.area_valid += a[u];
-        c.volume += std::max(0.0, depth_m) * a[u];  // material above the road is not missing volume
+        // Material above the road is not missing volume.
+        c.volume += std::max(0.0, (std::isfinite(dv[u]) ? dv[u] : d[u]) / 1000.0) * a[u];
       } else {
         ++c.invalid;
       }
     }
   }
   const std::vector<cv::Rect> boxes = LabelBoxes(labels);
+  cv::Mat road;  // valid, not obstacle: made when the first instance needs the scale test
   std::vector<DamageInstance> out;
   for (int id = 1; id <= n; ++id) {
     Acc& c = acc[id];
@@ -770,13 +807,22 @@ std::vector<DamageInstance> MeasureDepressions(const cv::Mat& labels, const Road
     for (size_t i = 0; i < ring.size(); ++i)
       for (size_t j = i + 1; j < ring.size(); ++j) dmax = std::max(dmax, (ring[i] - ring[j]).norm());
     d.max_diameter_m = dmax;
-    const bool deep = std::isfinite(d.max_depth_m) && d.max_depth_m >= o.pothole_min_depth_m &&
-                      d.max_depth_m >= o.pothole_min_depth_sigma * d.sigma_depth_m &&
-                      1000.0 * d.max_depth_m >= o.pothole_min_noise_sigma * c.noise_mm / c.pixels;
+    const bool measurable = std::isfinite(d.max_depth_m) && d.max_depth_m >= o.pothole_min_depth_m &&
+                            d.max_depth_m >= o.pothole_min_depth_sigma * d.sigma_depth_m;
     const bool compact = d.max_diameter_m > 0 && d.area_m2 >= o.pothole_min_compactness * CV_PI / 4 *
                                                                   d.max_diameter_m * d.max_diameter_m;
-    const bool wide = deep && compact && d.equivalent_diameter_m >= o.pothole_min_diameter_m &&
-                      CoreWidthM(labels, id, r, area, 0.5 * d.max_depth_m, boxes[id]) >= o.pothole_min_core_width_m;
+    double core_px = 0;
+    const bool shaped = measurable && compact && d.equivalent_diameter_m >= o.pothole_min_diameter_m &&
+                        CoreWidthM(labels, id, r, area, 0.5 * d.max_depth_m, boxes[id], &core_px) >=
+                            o.pothole_min_core_width_m;
+    bool confirmed = 1000.0 * d.max_depth_m >= o.pothole_min_noise_sigma * c.noise_mm / c.pixels;
+    // Deeper than the noise at its own scale: a depression much wider than SGM's wrong-winner
+    // patches is not one of them (scale_noise.h). Only where the per-pixel rule does not decide.
+    if (shaped && !confirmed && !noise_px.empty()) {
+      if (road.empty()) road = r.valid_mask & (r.obstacle_mask == 0);
+      confirmed = ConfirmedAtScale(r.depth_below_mm, road, labels, id, boxes[id], core_px, o);
+    }
+    const bool wide = shaped && confirmed;
     d.type = wide ? DamageType::kPothole : DamageType::kOther;
     // Confidence: how far the mean depth stands above the stereo noise (a 3σ_Z depression ≈ 0.99).
     d.confidence = std::isfinite(d.mean_depth_m) && d.sigma_depth_m > 0

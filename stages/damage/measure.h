@@ -50,15 +50,26 @@ void ExtendToRim(cv::Mat& labels, const RoadRelief& relief, double rim_depth_m, 
 /// half-max-depth core at least pothole_min_core_width_m wide (CoreWidthM), otherwise other. Severity is not graded here.
 /// `noise_px` (optional CV_32F, the road's local disparity noise σ in px, e.g. LocalReliefNoise of
 /// the transformed disparity): a pothole's max depth must also reach pothole_min_noise_sigma times
-/// its mean over the instance as depth below the surface (σ·Z²/(f·B)·|n·ray|).
+/// its mean over the instance as depth below the surface (σ·Z²/(f·B)·|n·ray|), or, failing that,
+/// at the depression's own scale (MeasureScaleNoise over a window as wide as the square inscribed
+/// in its core, at least kMinScaleWindowPx): its deepest window mean pothole_min_noise_sigma
+/// times the road's window-mean σ around it and (pothole_min_spike_ratio > 0) that ratio times
+/// their spike_quantile above the road.
+/// `volume_depth_below_mm` (optional, CV_32F, NaN invalid): the depth the volume sums instead of
+/// the relief's (the disparity stage's sharp image, SharpDepthBelowMm: the smooth refinement
+/// window makes the floor beside a wall shallower and spreads the wall beyond the outline); where
+/// it is NaN the relief's depth is summed.
 std::vector<DamageInstance> MeasureDepressions(const cv::Mat& labels, const RoadRelief& relief,
                                                const StereoGeometry& geometry, const RoadSurface& surface,
-                                               const MeasureOptions& options, const cv::Mat& noise_px = cv::Mat());
+                                               const MeasureOptions& options, const cv::Mat& noise_px = cv::Mat(),
+                                               const cv::Mat& volume_depth_below_mm = cv::Mat());
 
 /// Width (m) of the largest circle inscribed in the part of instance `id` at least
 /// `min_depth_m` below the road (pixel widths from `pixel_area_m2`); 0 when empty.
+/// `width_px` (optional): the same circle's width in pixels.
 double CoreWidthM(const cv::Mat& labels, int id, const RoadRelief& relief, const cv::Mat& pixel_area_m2,
-                  double min_depth_m, cv::Rect box = cv::Rect());  ///< box: the label's bounding box (empty = search)
+                  double min_depth_m, cv::Rect box = cv::Rect(),  ///< box: the label's bounding box (empty = search)
+                  double* width_px = nullptr);
 
 /// Outer boundary of one label as a polygon (pixel coordinates), simplified to 1 px.
 std::vector<cv::Point> OutlineOf(const cv::Mat& labels, int id);

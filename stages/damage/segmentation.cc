@@ -338,6 +338,20 @@ DepressionSegmentation SegmentDepressions(const ReliefImage& relief, const Segme
       for (int u = 0; u < seed.cols; ++u)
         if (sd[u] && !(x[u] - level < -k * ns[u])) sd[u] = 0;
     });
+    // Significant where it lies is enough: deep damage elsewhere in the frame raises the energy
+    // threshold (13–14 σ beside 120 mm potholes) above shallow potholes that stand
+    // seed_noise_sigma local σ out (obstacles seed 3, our disparity: 41.5 mm at 6 m lost).
+    if (o.seed_noise_sigma > 0) {
+      const float k2 = static_cast<float>(o.seed_noise_sigma);
+      tbb::parallel_for(0, seed.rows, [&](int v) {
+        uchar* sd = seed.ptr<uchar>(v);
+        const uchar* m = relief.valid.ptr<uchar>(v);
+        const float* x = relief.value.ptr<float>(v);
+        const float* ns = noise_sigma.ptr<float>(v);
+        for (int u = 0; u < seed.cols; ++u)
+          if (m[u] && x[u] - level < -k2 * ns[u]) sd[u] = 255;
+      });
+    }
     out.noise_sigma = noise_sigma;
     // A noisier class grows only as deep as it seeds: its wrong winners, though shallower than a
     // seed, reach the frame's growth threshold and carried a region along a paint line.

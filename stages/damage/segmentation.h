@@ -60,7 +60,8 @@ double EnergyThresholdSigma(const cv::Mat& z, const cv::Mat& valid, const Segmen
 /// `pixel_area_m2` (CV_32F, road-plane area of each pixel) enables the metric
 /// minimum size; empty = use options.min_area_px. `noise_sigma` (CV_32F, per-pixel σ in the
 /// relief's units, e.g. LocalReliefNoise): a seed must also lie min_threshold_sigma of it below
-/// the road (significant against the noise where it lies); growth keeps the frame's threshold,
+/// the road (significant against the noise where it lies), and any pixel options.seed_noise_sigma
+/// of it below the road seeds whatever the frame's threshold; growth keeps the frame's threshold,
 /// except on `noisy_class` (optional CV_8U, non-zero = pixels of their own, noisier class, e.g.
 /// within the margin of paint edges, StrongEdgeMask), which join a region only as deep as a seed
 /// (a region grew along a paint line's wrong winners: obstacles seed 2, ours, a pothole's label

@@ -162,19 +162,20 @@ SimDamageEvaluation EvaluateSimulatedDamage(const fs::path& dir, const SimDamage
     const std::string& name = survey.frames[k];
     const SimFrameTruth frame = ReadSimFrame(survey, k);
     const cv::Mat &left = frame.left, &masks = frame.masks, &truth_disp = frame.truth_disparity_px;
-    cv::Mat disparity = truth_disp;
+    cv::Mat disparity = truth_disp, sharp;
     if (!o.use_truth_disparity) {
       const cv::Mat right = ReadSimRightImage(survey, k);
       const auto t0 = std::chrono::steady_clock::now();
       DisparityResult dr = ComputeDisparity(left, right, o.disparity);
       ms_disp.push_back(MsSince(t0));
       disparity = dr.disparity;
+      if (o.use_sharp_disparity) sharp = dr.disparity_sharp;
     }
     valid_sum += cv::countNonZero(disparity > 0) / double(disparity.total());
     r.width = left.cols, r.height = left.rows;
     const auto t0 = std::chrono::steady_clock::now();
     const std::clock_t c0 = std::clock();
-    const FrameDamage fd = DetectDamage(disparity, left, g, o.damage);
+    const FrameDamage fd = DetectDamage(disparity, left, g, o.damage, sharp);
     // Scored range: as asked, else the range the damage stage analysed in this frame.
     const double max_range = o.max_range_m > 0 ? o.max_range_m : fd.analysed_range_m;
     r.max_range_m = std::max(r.max_range_m, max_range);
@@ -200,7 +201,10 @@ SimDamageEvaluation EvaluateSimulatedDamage(const fs::path& dir, const SimDamage
       const bool edge_row = v == 0 || v == masks.rows - 1;
       for (int u = 0; u < masks.cols; ++u) {
         const int t = tr[u], p = pr[u];
-        const bool edge = edge_row || u == 0 || u == masks.cols - 1;
+        // The frame's border is the stereo pair's: a point left of the right image (u − d < 0,
+        // true disparity) is seen by the left camera alone, and no stereo matcher measures it.
+        const float d_true = truth_disp.at<float>(v, u);
+        const bool edge = edge_row || u == 0 || u == masks.cols - 1 || (d_true > 0 && u - d_true < 0);
         if (t) {
           ++area_t[t];
           if (const float d = truth_disp.at<float>(v, u); d > 0) {
@@ -269,8 +273,17 @@ SimDamageEvaluation EvaluateSimulatedDamage(const fs::path& dir, const SimDamage
     };
     auto scored = [&](int t) { return in_view(t) && confirmable(t); };
     std::map<int, const DamageInstance*> pothole_det;
+    bool debug_frame = false;
     for (const auto& d : fd.instances) {
-      if (on_obstacle_p[d.id] * 2 >= area_p[d.id] && area_p[d.id] > 0) ++r.obstacle_detections;
+      if (on_obstacle_p[d.id] * 2 >= area_p[d.id] && area_p[d.id] > 0) {
+        ++r.obstacle_detections;
+        const cv::Rect box = cv::boundingRect(fd.labels == d.id);
+        r.obstacle_detection_lines.push_back(
+            fmt::format("{} #{} {}: {:.4f} m2, {:.1f} mm deep, Z {:.1f} m, {:.0f} % on obstacle, bbox {}x{}+{}+{}", name,
+                        d.id, DamageTypeName(d.type), d.area_m2, 1000 * d.max_depth_m, d.range_m,
+                        100.0 * on_obstacle_p[d.id] / area_p[d.id], box.width, box.height, box.x, box.y));
+        debug_frame = true;
+      }
       if (d.type == DamageType::kPothole) pothole_det[d.id] = &d;
     }
     // Greedy one-to-one matching by descending IoU between pothole detections and scored truth.
@@ -288,7 +301,6 @@ SimDamageEvaluation EvaluateSimulatedDamage(const fs::path& dir, const SimDamage
       matched_p.insert(p);
       match_of_truth[t] = {p, iou};
     }
-    bool debug_frame = false;
     for (const auto& [p, d] : pothole_det) {
       if (border_p.count(p) && !matched_p.count(p)) continue;  // cut by the frame: not scored
       ++r.detections;

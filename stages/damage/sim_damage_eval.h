@@ -18,6 +18,9 @@ namespace rs {
 struct SimDamageEvalOptions {
   bool use_truth_disparity = false;  ///< true: truth/disparity (isolates the damage stage); false: ComputeDisparity
   DisparityParams disparity;         ///< used when use_truth_disparity is false
+  /// With ComputeDisparity: pass its sharp image (DisparityResult::disparity_sharp) to DetectDamage,
+  /// as the job graph does (the truth disparity has one image).
+  bool use_sharp_disparity = true;
   DamageOptions damage;
   double min_diameter_m = 0.3;       ///< truth potholes at least this wide (mean_diameter_m) are scored
   double min_iou = 0.5;              ///< detection ↔ truth mask IoU needed for a match
@@ -123,6 +126,7 @@ struct SimDamageEvaluation {
   int width = 0, height = 0;
   double max_range_m = 0;  ///< scored range used (the largest over the frames)
   std::vector<std::string> false_detections;  ///< "frame id: area, depth, bbox" of each false positive
+  std::vector<std::string> obstacle_detection_lines;  ///< "frame id type: area, depth, bbox" of each obstacle detection
   /// Multi-line human-readable summary of every figure above.
   std::string Report() const;
 };

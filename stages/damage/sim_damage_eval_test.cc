@@ -219,6 +219,7 @@ TEST(SimDamageEval, Benchmark) {
   SimDamageEvalOptions o;
   if (const char* step = std::getenv("ROADSURVEY_SIM_EVAL_STEP")) o.frame_step = std::atoi(step);
   o.use_truth_disparity = std::getenv("ROADSURVEY_SIM_EVAL_TRUTH") != nullptr;
+  o.use_sharp_disparity = std::getenv("ROADSURVEY_SIM_EVAL_NO_SHARP") == nullptr;  // one image (smooth) only
   o.disparity.road.quadratic = std::getenv("ROADSURVEY_SIM_EVAL_QUADRATIC") != nullptr;  // cambered road model
   // Also score potholes shallower than the stage's σ_Z rule allows at their range.
   o.require_confirmable_depth = std::getenv("ROADSURVEY_SIM_EVAL_ALL_DEPTHS") == nullptr;
@@ -249,6 +250,8 @@ TEST(SimDamageEval, Benchmark) {
                                1000 * ob.max_depth_bound_m, ob.volume_upper_m3);
   if (std::getenv("ROADSURVEY_SIM_EVAL_VERBOSE"))
     for (const auto& f : r.false_detections) std::cout << "  false: " << f << "\n";
+  if (std::getenv("ROADSURVEY_SIM_EVAL_VERBOSE"))
+    for (const auto& f : r.obstacle_detection_lines) std::cout << "  obstacle: " << f << "\n";
 }
 
 }  // namespace

@@ -652,8 +652,11 @@ void RefineSubpixel(const cv::Mat& ref, const cv::Mat& target, cv::Mat* disparit
 }
 
 void RefineSubpixel(const cv::Mat& ref, const cv::Mat& target, cv::Mat* disparity, const cv::Mat& valid,
-                    const SubpixelRefineOptions& o) {
-  if (o.window <= 0) return;
+                    const SubpixelRefineOptions& o, cv::Mat* window_value) {
+  if (o.window <= 0) {
+    if (window_value) disparity->copyTo(*window_value);
+    return;
+  }
   // Texture the small window needs: a mean squared slope of 4 (2 grey levels per px; G = 24 x
   // slope). Below it (inside a painted line, a shadow's flat core) the intensities say little at
   // this size and SGM's value stays (lower gates here made false potholes on the obstacles preset).
@@ -688,7 +691,10 @@ void RefineSubpixel(const cv::Mat& ref, const cv::Mat& target, cv::Mat* disparit
   disparity->copyTo(sgm_in);  // SGM's values: both passes read their integer winners there
   RefinePass(ref_hp, target_hp, sgm_in, disparity, valid, valid, o.window, min_weight(o.window), smooth ? &agree_map : nullptr,
              static_cast<float>(o.smooth_agree_px));
-  if (!smooth) return;
+  if (!smooth) {
+    if (window_value) disparity->copyTo(*window_value);
+    return;
+  }
   // One straight, mostly vertical edge dominating the small window (a hard shadow, a paint edge):
   // the match rests on where each camera's pixel grid cut that edge, an error that varies slowly
   // along it (±0.5 px in 40-row waves along a car's shadow on the simulator's obstacles preset)
@@ -710,6 +716,7 @@ void RefineSubpixel(const cv::Mat& ref, const cv::Mat& target, cv::Mat* disparit
   // pothole's wall), the value is at most smooth_max_px (the road and below it, not obstacles) and
   // no edge dominates the small one.
   const float max_value = static_cast<float>(o.smooth_max_px);
+  if (window_value) window_value->create(valid.size(), CV_32F);
   tbb::parallel_for(tbb::blocked_range<int>(0, valid.rows, 32), [&](const tbb::blocked_range<int>& r) {
     for (int v = r.begin(); v < r.end(); ++v) {
       const float *__restrict b = smoothed.ptr<float>(v), *__restrict s0 = sgm_in.ptr<float>(v);
@@ -717,6 +724,7 @@ void RefineSubpixel(const cv::Mat& ref, const cv::Mat& target, cv::Mat* disparit
       const uint8_t* __restrict e = edges ? edge.ptr<uint8_t>(v) : valid.ptr<uint8_t>(v);
       const uint8_t* __restrict m = valid.ptr<uint8_t>(v);
       float* __restrict d = disparity->ptr<float>(v);
+      if (window_value) std::memcpy(window_value->ptr<float>(v), d, sizeof(float) * valid.cols);
       const int edge_bit = edges ? 1 : 0;
       for (int u = 0; u < valid.cols; ++u) {  // branch-free: vectorises
         const int ok = static_cast<int>(m[u] != 0) & static_cast<int>(d[u] <= max_value);
@@ -833,9 +841,19 @@ DisparityResult ComputeDisparity(const cv::Mat& left, const cv::Mat& right, cons
   refine.shift_ratio = P.refine_shift_ratio;
   if (gpt) refine.smooth_window = P.refine_smooth_window, refine.smooth_agree_px = P.refine_smooth_agree_px,
            refine.smooth_max_px = smooth_max_px;
-  RefineSubpixel(ref_s, target_s, &sgm.disparity, sgm.valid, refine);
+  // The small window's value alone as a second image (DisparityResult::disparity_sharp), where
+  // the smooth window ran.
+  const bool sharp = gpt && refine.window > 0 && refine.smooth_window > refine.window;
+  cv::Mat sharp_l;
+  RefineSubpixel(ref_s, target_s, &sgm.disparity, sgm.valid, refine, sharp ? &sharp_l : nullptr);
   FilterSpeckles(&sgm.disparity, &sgm.valid, P.speckle_window_size, P.speckle_max_diff_px);
-  if (P.median) MedianValid3x3(&sgm.disparity, sgm.valid);
+  // The sharp image takes the post-processing's validity: NaN where a speckle went (the median
+  // reads valid neighbours only), the smooth image's value where a small hole is filled.
+  if (sharp) sharp_l.setTo(std::numeric_limits<float>::quiet_NaN(), sgm.valid == 0);
+  if (P.median) {
+    if (sharp) MedianValid3x3(&sharp_l, sgm.valid);
+    MedianValid3x3(&sgm.disparity, sgm.valid);
+  }
   FillSmallHoles(&sgm.disparity, &sgm.valid, P.fill_min_neighbours, P.speckle_max_diff_px);
   res.timings.postprocess_ms = MsSince(t0);
 
@@ -852,15 +870,22 @@ DisparityResult ComputeDisparity(const cv::Mat& left, const cv::Mat& right, cons
     for (int v = r.begin(); v < r.end(); ++v) {
       float* d = res.disparity.ptr<float>(v);
       uint8_t* m = res.valid.ptr<uint8_t>(v);
+      float* ds = sharp ? sharp_l.ptr<float>(v) : nullptr;
+      if (ds)  // filled holes: the smooth image's value
+        for (int u = 0; u < W; ++u) ds[u] = m[u] && std::isnan(ds[u]) ? d[u] : ds[u];
       if (warped && P.gpt_pixel_warp) {
         // d = l + s(u - l, v), s = road - delta (the warp's own shift at the matched column).
         const double a = res.road.c[0] + res.road.c[2] * v + res.road.c[5] * v * v - P.gpt_delta_px,
                      b = res.road.c[1] + res.road.c[4] * v, c = res.road.c[3];
         PixelWarpToTrueRow(d, m, W, a, b, c);
+        if (ds) PixelWarpToTrueRow(ds, m, W, a, b, c);
       } else if (warped) {
         RowWarpToTrueRow(d, m, W, kappa[v]);
+        if (ds) RowWarpToTrueRow(ds, m, W, kappa[v]);
       }
       const int n_valid = DropOutsideRow(d, m, W);
+      if (ds)  // the same validity (a match outside the target image went)
+        for (int u = 0; u < W; ++u) ds[u] = KeepOrZero(ds[u], m[u] != 0);
       row_valid[v] = n_valid;
       if (!gpt) continue;
       TransformedDisparityRow(d, m, W, v, res.road, P.gpt_delta_px, res.transformed.ptr<float>(v));
@@ -910,6 +935,7 @@ DisparityResult ComputeDisparity(const cv::Mat& left, const cv::Mat& right, cons
     res.transformed = cv::Mat::zeros(H, W, CV_32F);
   }
   res.valid_fraction = static_cast<double>(num_valid) / static_cast<double>(res.valid.total());
+  if (sharp) res.disparity_sharp = sharp_l;
   res.timings.transform_ms = MsSince(t0);
   res.timings.total_ms = MsSince(t_start);
   return res;

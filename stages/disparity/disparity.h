@@ -115,6 +115,12 @@ struct DisparityResult {
   cv::Mat disparity;    ///< true disparity, CV_32F px, left view; 0 where invalid
   cv::Mat transformed;  ///< transformed disparity d - road(u, v) + delta, CV_32F; 0 where invalid or no reliable road model
   cv::Mat valid;        ///< CV_8U, 255 where disparity is valid
+  /// GPT-SGM with refine_smooth_window: the true disparity of the refine_window pass alone (before
+  /// the smooth window's value is taken; same post-processing, same validity as `disparity`).
+  /// Noisier on the road, but a pothole's wall stays where it is: the 21x21 window spreads a
+  /// sloping wall's depth 5-8 px onto the road and makes the floor beside it shallower
+  /// (docs/stages/disparity.md, "Two images"). Empty when no smooth window ran (equal to `disparity`).
+  cv::Mat disparity_sharp;
   RoadModel road;       ///< road model used (GPT) or fitted to the dense result (SGM)
   DisparityMethod method_used = DisparityMethod::kSgm;  ///< kSgm also when GPT fell back
   bool fell_back = false;   ///< GPT requested but road model unreliable -> plain SGM over the wide range
@@ -165,9 +171,11 @@ struct SubpixelRefineOptions {
   double shift_ratio = 0;
 };
 
-/// RefineSubpixel with the larger smooth window and the edge test.
+/// RefineSubpixel with the larger smooth window and the edge test. `window_value` (optional): the
+/// refine_window pass's value alone, before the smooth window's is taken (a copy of the result
+/// where no smooth window runs): it keeps a pothole's wall where the smooth window spreads it.
 void RefineSubpixel(const cv::Mat& ref, const cv::Mat& target, cv::Mat* disparity, const cv::Mat& valid,
-                    const SubpixelRefineOptions& options);
+                    const SubpixelRefineOptions& options, cv::Mat* window_value = nullptr);
 
 /// Drops 4-connected regions of valid pixels (neighbour steps <= max_diff_px) with fewer than
 /// max_size pixels; sets their disparity to 0 and validity to 0.

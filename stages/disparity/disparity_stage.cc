@@ -176,6 +176,9 @@ const OptionTable<DisparityStageOptions>& DisparityStageOptions::Table() {
                "seed each frame's road fit with the previous frame's model (helps high, weakly textured flights)")
           .Add("write_transformed", &DisparityStageOptions::write_transformed,
                "write the transformed disparity (float TIFF), which the damage stage reads")
+          .Add("write_sharp", &DisparityStageOptions::write_sharp,
+               "write disparity_sharp.png (KITTI 16-bit) where the smooth refinement window ran: the refine_window "
+               "value alone, on which the damage stage sums volumes")
           .Add("write_preview", &DisparityStageOptions::write_preview, "write a colour preview PNG per frame")
           .Add("write_point_cloud", &DisparityStageOptions::write_point_cloud,
                "write a metric point cloud PLY per frame (left camera frame)")
@@ -222,6 +225,8 @@ void DisparityStage::Run(StageContext& ctx, const DisparityStageOptions& o) cons
         const DisparityResult r = ComputeDisparity(left, right, o.params, prior ? &*prior : nullptr);
         WriteKittiDisparityPng((tmp / "disparity.png").string(), r.disparity, r.valid);
         cv::imwrite((tmp / "valid.png").string(), r.valid);
+        if (o.write_sharp && !r.disparity_sharp.empty())
+          WriteKittiDisparityPng((tmp / "disparity_sharp.png").string(), r.disparity_sharp, r.valid);
         if (o.write_transformed && !r.transformed.empty())
           cv::imwrite((tmp / "transformed.tiff").string(), r.transformed);
         if (o.write_preview) {

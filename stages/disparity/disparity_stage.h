@@ -13,6 +13,9 @@ struct DisparityStageOptions {
   DisparityParams params;
   bool temporal_prior = true;      ///< seed each frame's road fit with the previous frame's model
   bool write_transformed = true;   ///< transformed disparity (float TIFF), the damage stage's input
+  /// disparity_sharp.png (KITTI 16-bit) where the smooth refinement window ran: the refine_window
+  /// pass alone (DisparityResult::disparity_sharp), on which the damage stage sums volumes
+  bool write_sharp = true;
   bool write_preview = false;      ///< colour preview PNG per frame
   bool write_point_cloud = false;  ///< metric point cloud PLY per frame (left camera frame)
   bool skip_bad_frames = true;     ///< skip and count frames whose images cannot be read
