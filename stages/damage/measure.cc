@@ -799,7 +799,7 @@ std::vector<DamageInstance> MeasureDepressions(const cv::Mat& labels, const Road
     for (const cv::Point& p : d.outline_px) {
       const double z = s.RayDepth(g, p.x, p.y);
       if (!std::isfinite(z)) continue;
-      const Eigen::Vector3d q((p.x - g.cx_px) * z / g.f_px, (p.y - g.cy_px) * z / g.f_px, z);
+      const Eigen::Vector3d q = CameraPointAtDepth(g, p.x, p.y, z);
       ring.push_back(q);
       d.outline_cam_m.emplace_back(q.x(), q.y(), q.z());
     }

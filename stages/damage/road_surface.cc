@@ -31,11 +31,6 @@ constexpr double kTukeyC = 4.685;  // 95 % efficiency at the Gaussian
 
 bool ValidDisparity(float d) { return std::isfinite(d) && d > 0; }
 
-Eigen::Vector3d Backproject(const StereoGeometry& g, double u, double v, double d) {
-  const double z = g.f_px * g.baseline_m / d;
-  return {(u - g.cx_px) * z / g.f_px, (v - g.cy_px) * z / g.f_px, z};
-}
-
 // Reorders `v`.
 double MedianInPlace(std::vector<double>& v) {
   if (v.empty()) return kNaN;
@@ -134,7 +129,7 @@ RoadSurface FitRoadSurface(const cv::Mat& disparity_px, const StereoGeometry& g,
     const float* row = disparity_px.ptr<float>(v);
     for (int u = 0; u < disparity_px.cols; u += o.fit_stride_px)
       if (ValidDisparity(row[u])) {
-        pts.push_back(Backproject(g, u, v, row[u]));
+        pts.push_back(CameraPointFromDisparity(g, u, v, row[u]));
         cell.push_back(v / o.fit_stride_px * gw + u / o.fit_stride_px);
       }
   }

@@ -36,6 +36,16 @@ struct RoadSurface {
   double RayDepth(const StereoGeometry& g, double u, double v) const;
 };
 
+/// Camera-frame point (m) on the ray of pixel (u, v) at depth z (camera z, m).
+inline Eigen::Vector3d CameraPointAtDepth(const StereoGeometry& g, double u, double v, double z) {
+  return {(u - g.cx_px) * z / g.f_px, (v - g.cy_px) * z / g.f_px, z};
+}
+
+/// Camera-frame point (m) of pixel (u, v) with disparity d (px): Z = f·B / d.
+inline Eigen::Vector3d CameraPointFromDisparity(const StereoGeometry& g, double u, double v, double d) {
+  return CameraPointAtDepth(g, u, v, g.f_px * g.baseline_m / d);
+}
+
 /// Fits the road surface to a disparity map (CV_32F, px; ≤ 0 or NaN invalid).
 /// Throws std::invalid_argument on bad geometry or too few valid disparities.
 RoadSurface FitRoadSurface(const cv::Mat& disparity_px, const StereoGeometry& geometry,

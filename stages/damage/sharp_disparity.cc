@@ -27,8 +27,7 @@ cv::Mat SharpDepthBelowMm(const cv::Mat& sharp, const cv::Mat& disparity_px, con
       float* o = out.ptr<float>(v);
       for (int u = b.x; u < b.x + b.width; ++u) {
         if (l[u] != id || !(d[u] > 0) || !(ds[u] > 0) || !std::isfinite(ds[u])) continue;
-        const double z = fb / ds[u];
-        const Eigen::Vector3d p((u - g.cx_px) * z / g.f_px, (v - g.cy_px) * z / g.f_px, z);
+        const Eigen::Vector3d p = CameraPointAtDepth(g, u, v, fb / ds[u]);
         const double corr = correction_mm.empty() ? 0.0 : correction_mm.at<float>(v, u);
         o[u] = static_cast<float>(1000.0 * s.DepthBelow(p) - corr);
       }

@@ -74,8 +74,7 @@ std::vector<TruthObstacle> ReadObstacles(const fs::path& path, const nlohmann::j
 
 // World point of pixel (u, v) with disparity d (px) seen from pose T_world_cam.
 Eigen::Vector3d WorldPoint(const StereoGeometry& g, const Eigen::Isometry3d& T, double u, double v, double d) {
-  const double z = g.f_px * g.baseline_m / d;
-  return T * Eigen::Vector3d((u - g.cx_px) * z / g.f_px, (v - g.cy_px) * z / g.f_px, z);
+  return T * CameraPointFromDisparity(g, u, v, d);
 }
 
 // CV_8U mask of pixels whose truth surface point lies inside an obstacle (grown by margin_m).
@@ -252,8 +251,7 @@ SimDamageEvaluation EvaluateSimulatedDamage(const fs::path& dir, const SimDamage
         }
         // Road model: the true intact road's height relative to the fitted surface.
         if (!t && (u % 4 == 0) && (v % 4 == 0) && road_ok.at<uchar>(v, u) && truth_disp.at<float>(v, u) > 0) {
-          const double d = truth_disp.at<float>(v, u), z = g.f_px * g.baseline_m / d;
-          const Eigen::Vector3d pc((u - g.cx_px) * z / g.f_px, (v - g.cy_px) * z / g.f_px, z);
+          const Eigen::Vector3d pc = CameraPointFromDisparity(g, u, v, truth_disp.at<float>(v, u));
           road_abs_mm.push_back(std::abs(1000.0 * fd.surface.DepthBelow(pc) - fd.relief.correction_mm.at<float>(v, u)));
         }
       }
