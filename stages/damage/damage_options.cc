@@ -166,6 +166,9 @@ void MeasureOptions::Check() const {
           0);
   Require(floor_clearance_px >= 0, "floor_clearance_px", floor_clearance_px, ">=", "0", 0);
   Require(hidden_wall_slope > 0, "hidden_wall_slope", hidden_wall_slope, ">", "0", 0);
+  Require(outline_sigma_px >= 0, "outline_sigma_px", outline_sigma_px, ">=", "0", 0);
+  Require(outline_blur_px >= 0, "outline_blur_px", outline_blur_px, ">=", "0", 0);
+  Require(depth_noise_correlation_px >= 1, "depth_noise_correlation_px", depth_noise_correlation_px, ">=", "1", 1);
 }
 
 const OptionTable<MeasureOptions>& MeasureOptions::Table() {
@@ -201,7 +204,19 @@ const OptionTable<MeasureOptions>& MeasureOptions::Table() {
       .Min(0)
       .Add("hidden_wall_slope", &O::hidden_wall_slope,
            "hidden floor: walls in the near rim's shadow assumed no steeper on average (bounds the hidden depth)")
-      .Above(0);
+      .Above(0)
+      .Add("outline_sigma_px", &O::outline_sigma_px,
+           "calibrated outline position uncertainty of a depression far deeper than the stereo noise "
+           "(sigma_area_m2, sigma_volume_m3)", "px")
+      .Min(0)
+      .Add("outline_blur_px", &O::outline_blur_px,
+           "calibrated width of a wall's spread depth: the outline uncertainty grows by this times sigma_Z / max depth",
+           "px")
+      .Min(0)
+      .Add("depth_noise_correlation_px", &O::depth_noise_correlation_px,
+           "depth errors correlated over patches this wide (the matcher's window): the volume's noise averages "
+           "over the patches", "px")
+      .Min(1);
   return table;
 }
 

@@ -149,6 +149,16 @@ struct MeasureOptions {
   /// Hidden floor: walls in the rim's shadow assumed no steeper on average (depth per metre)
   /// than this; bounds the hidden depth (vertical walls would leave it unbounded).
   double hidden_wall_slope = 1.0;
+  /// Calibrated (measurement_sigma.h): outline position uncertainty where the depression is far
+  /// deeper than the stereo noise, px (our disparity's blur of the walls: a toe on the road
+  /// beside one wall, a shallower band inside another).
+  double outline_sigma_px = 1.5;
+  /// Calibrated: the wall's depth profile spread over about this many pixels, so the stereo noise
+  /// moves the outline by outline_blur_px · σ_Z / max depth more, px.
+  double outline_blur_px = 3.0;
+  /// Depth errors of neighbouring pixels are correlated over the matcher's window (the 9×9
+  /// refinement): the volume's noise averages over patches of this size, px.
+  double depth_noise_correlation_px = 9.0;
   void Check() const;
   static const OptionTable<MeasureOptions>& Table();
 };

@@ -87,6 +87,8 @@ nlohmann::json DetectionsToJson(const std::vector<DamageInstance>& instances) {
                     {"max_width_m", Num(d.max_width_m)},
                     {"range_m", Num(d.range_m)},
                     {"sigma_depth_m", Num(d.sigma_depth_m)},
+                    {"sigma_area_m2", Num(d.sigma_area_m2)},
+                    {"sigma_volume_m3", Num(d.sigma_volume_m3)},
                     {"confidence", Num(d.confidence)},
                     {"floor_visible", d.floor_visible},
                     {"grazing_angle_deg", Num(d.grazing_angle_deg)},

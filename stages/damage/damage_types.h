@@ -67,6 +67,11 @@ struct DamageInstance {
   double max_width_m = kUnknown;            ///< cracks: largest width along the skeleton
   double range_m = kUnknown;                ///< mean camera distance Z of the road under the instance
   double sigma_depth_m = kUnknown;          ///< stereo depth uncertainty σ_Z = Z²·σ_d/(f·B) at range_m
+  /// Depressions: σ of area_m2, the outline moved by its position uncertainty (measurement_sigma.h).
+  double sigma_area_m2 = kUnknown;
+  /// Depressions: σ of volume_seen_m3 (depth noise over the region, the outline's uncertainty at
+  /// the mean depth); where the floor may be hidden volume_upper_m3 bounds the rest.
+  double sigma_volume_m3 = kUnknown;
   double confidence = 0;             ///< 0..1, see docs/stages/damage.md
   /// Line of sight over the near rim (floor_visibility.h; depressions only). false: the rim
   /// may hide part of the floor from this viewpoint: max_depth_seen_m is then a lower bound,

@@ -1,5 +1,6 @@
 #include "stages/damage/measure.h"
 
+#include "stages/damage/measurement_sigma.h"
 #include "stages/damage/scale_noise.h"
 
 #include <opencv2/imgproc.hpp>
@@ -739,6 +740,7 @@ std::vector<DamageInstance> MeasureDepressions(const cv::Mat& labels, const Road
   struct Acc {
     std::vector<double> depth;
     double area = 0, area_valid = 0, volume = 0, z = 0, noise_mm = 0;
+    double boundary_area = 0;  // of the pixels with a 4-neighbour outside the region
     int pixels = 0, invalid = 0;
   };
   std::vector<Acc> acc(n + 1);
@@ -753,6 +755,7 @@ std::vector<DamageInstance> MeasureDepressions(const cv::Mat& labels, const Road
       Acc& c = acc[l[u]];
       ++c.pixels;
       c.area += a[u];
+      if (IsBoundaryPixel(labels, u, v)) c.boundary_area += a[u];
       c.z += z[u];
       if (!noise_px.empty()) {
         // Disparity noise as depth below the surface: a point moved along its ray by
@@ -794,6 +797,8 @@ std::vector<DamageInstance> MeasureDepressions(const cv::Mat& labels, const Road
       d.volume_m3 = c.volume + std::max(0.0, d.mean_depth_m) * (c.area - c.area_valid);
     }
     d.equivalent_diameter_m = std::sqrt(4.0 * d.area_m2 / CV_PI);
+    d.sigma_area_m2 = AreaSigmaM2(c.boundary_area, OutlineSigmaPx(d.max_depth_m, d.sigma_depth_m, o));
+    d.sigma_volume_m3 = VolumeSigmaM3(d.area_m2, d.mean_depth_m, d.sigma_depth_m, d.sigma_area_m2, c.pixels, o);
     d.outline_px = OutlineOf(labels, id, boxes[id]);
     std::vector<Eigen::Vector3d> ring;
     for (const cv::Point& p : d.outline_px) {

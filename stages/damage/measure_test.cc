@@ -31,6 +31,12 @@ void CheckCap(double depth_m, double radius_m, double z_m) {
   EXPECT_NEAR(d.equivalent_diameter_m, 2 * radius_m, 0.05 * 2 * radius_m);
   EXPECT_NEAR(d.max_diameter_m, 2 * radius_m, 0.08 * 2 * radius_m);
   EXPECT_LT(d.mean_depth_m, d.max_depth_m);
+  // The stated uncertainties hold the errors (2 σ), and are of the outline's size: σ_area about
+  // the outline's length times its position uncertainty (1.5-4.5 px at these depths).
+  EXPECT_LE(std::abs(d.area_m2 - scene.TrueAreaM2()), 2 * d.sigma_area_m2);
+  EXPECT_LE(std::abs(d.volume_m3 - scene.TrueVolumeM3()), 2 * d.sigma_volume_m3);
+  EXPECT_GT(d.sigma_area_m2, 0.01 * d.area_m2);
+  EXPECT_LT(d.sigma_area_m2, 0.25 * d.area_m2);
   // σ_Z = Z²σ_d/(fB) at the pothole's range.
   EXPECT_NEAR(d.sigma_depth_m, d.range_m * d.range_m * 0.25 / (1000 * 0.2), 1e-9);
   EXPECT_NEAR(d.range_m, z_m, 0.1 * z_m);

@@ -153,8 +153,8 @@ SimDamageEvaluation EvaluateSimulatedDamage(const fs::path& dir, const SimDamage
   std::vector<double> ms_damage, cpu_damage, ms_disp, road_abs_mm, depth_mm, visible_depth_mm, area_pct, volume_pct,
       visible_volume_pct, seen_depth_mm, seen_volume_pct, bound_ratio, volume_ratio, hidden_depth_est_mm,
       bounded_volume_est_pct;
-  int within = 0, severity_ok = 0;
-  double sigma_sum = 0, valid_sum = 0;
+  int within = 0, severity_ok = 0, area_within = 0, volume_within = 0;
+  double sigma_sum = 0, valid_sum = 0, sigma_area_pct_sum = 0, sigma_volume_pct_sum = 0;
   std::set<int> unique;
   for (size_t k = 0; k < survey.frames.size(); k += o.frame_step) {
     if (o.max_frames > 0 && r.frames >= o.max_frames) break;
@@ -341,6 +341,9 @@ SimDamageEvaluation EvaluateSimulatedDamage(const fs::path& dir, const SimDamage
         ob.max_depth_m = d.max_depth_m, ob.area_m2 = d.area_m2, ob.volume_m3 = d.volume_m3;
         ob.max_depth_seen_m = d.max_depth_seen_m, ob.volume_seen_m3 = d.volume_seen_m3;
         ob.sigma_depth_m = d.sigma_depth_m, ob.astm = d.astm.level;
+        ob.sigma_area_m2 = d.sigma_area_m2, ob.sigma_volume_m3 = d.sigma_volume_m3;
+        area_within += std::abs(d.area_m2 - td.area_m2) <= 2 * d.sigma_area_m2;
+        sigma_area_pct_sum += 100.0 * d.sigma_area_m2 / d.area_m2;
         ++r.detected;
         const double de = d.max_depth_m - td.max_depth_m;
         depth_mm.push_back(1000.0 * de);
@@ -367,6 +370,8 @@ SimDamageEvaluation EvaluateSimulatedDamage(const fs::path& dir, const SimDamage
         // The volume likewise: an upper bound is stated wherever the rim's shadow may hide some.
         if (!std::isfinite(d.volume_upper_m3)) {
           seen_volume_pct.push_back(100.0 * (d.volume_m3 - td.volume_m3) / td.volume_m3);
+          volume_within += std::abs(d.volume_m3 - td.volume_m3) <= 2 * d.sigma_volume_m3;
+          sigma_volume_pct_sum += 100.0 * d.sigma_volume_m3 / d.volume_m3;
         } else {
           ++r.volume_bounded_matches;
           r.hidden_volume_contained += td.volume_m3 >= d.volume_seen_m3 - 2 * d.sigma_depth_m * d.area_m2 &&
@@ -429,6 +434,12 @@ SimDamageEvaluation EvaluateSimulatedDamage(const fs::path& dir, const SimDamage
     r.depth_within_2sigma = double(within) / r.detected;
     r.mean_sigma_depth_mm = 1000.0 * sigma_sum / r.detected;
     r.severity_agreement = double(severity_ok) / r.detected;
+    r.area_within_2sigma = double(area_within) / r.detected;
+    r.mean_sigma_area_pct = sigma_area_pct_sum / r.detected;
+  }
+  if (!seen_volume_pct.empty()) {
+    r.volume_within_2sigma = double(volume_within) / seen_volume_pct.size();
+    r.mean_sigma_volume_pct = sigma_volume_pct_sum / seen_volume_pct.size();
   }
   r.road_median_abs_mm = Percentile(road_abs_mm, 0.5);
   r.disparity_valid_fraction = r.frames ? valid_sum / r.frames : 0.0;
@@ -463,6 +474,8 @@ std::string SimDamageEvaluation::Report() const {
       "hidden flag vs truth (floor hidden > 10 mm): agrees in {}/{} matches, flagged hidden but seen {}, flagged "
       "seen but hidden {}; pothole detections flagged hidden {}/{}\n"
       "severity (ASTM vs truth) agreement {:.1f} %\n"
+      "stated uncertainty: area within 2 sigma_area {:.1f} % (mean sigma_area {:.1f} % of the area); volume seen "
+      "within 2 sigma_volume {:.1f} % (mean sigma_volume {:.1f} %, n {})\n"
       "road model: median |true road - fitted| {:.2f} mm\n"
       "time per frame: DetectDamage median {:.1f} ms wall (max {:.1f}), {:.1f} ms CPU (road {:.1f}, segment {:.1f}, measure {:.1f}, cracks {:.1f}); "
       "disparity median {:.1f} ms",
@@ -477,7 +490,8 @@ std::string SimDamageEvaluation::Report() const {
       volume_bounded_matches, hidden_volume_contained, volume_bounded_matches,
       fmt::format("median {:.2f}, max {:.2f}", volume_upper_ratio.median_abs, volume_upper_ratio.max_abs),
       stats(bounded_volume_estimate_error_pct, " %"), flag_agreements, detected,
-      flagged_hidden_truth_seen, flagged_seen_truth_hidden, hidden_flag_detections, detections, 100 * severity_agreement, road_median_abs_mm, ms_damage_median, ms_damage_max,
+      flagged_hidden_truth_seen, flagged_seen_truth_hidden, hidden_flag_detections, detections, 100 * severity_agreement, 100 * area_within_2sigma,
+      mean_sigma_area_pct, 100 * volume_within_2sigma, mean_sigma_volume_pct, seen_volume_error_pct.n, road_median_abs_mm, ms_damage_median, ms_damage_max,
       cpu_ms_damage_median, ms_road_median, ms_segment_median, ms_measure_median, ms_cracks_median,
       ms_disparity_median);
   return s;

@@ -61,6 +61,7 @@ struct PotholeObservation {
   /// and what the frame sees (max_depth_seen_m, volume_seen_m3).
   double max_depth_m = kUnknown, area_m2 = kUnknown, volume_m3 = kUnknown, sigma_depth_m = kUnknown;
   double max_depth_seen_m = kUnknown, volume_seen_m3 = kUnknown;
+  double sigma_area_m2 = kUnknown, sigma_volume_m3 = kUnknown;  ///< the stage's stated uncertainties
   SeverityLevel astm = SeverityLevel::kNone;
   /// The stage's line-of-sight verdict on the match (DamageInstance::floor_visible) and its
   /// bounds where it says hidden.
@@ -116,6 +117,12 @@ struct SimDamageEvaluation {
   DamageErrorStats volume_error_pct;   ///< (estimated − truth) / truth volume, % (every match)
   double depth_within_2sigma = 0;  ///< share of matches with |depth error| ≤ 2 σ_Z
   double mean_sigma_depth_mm = 0;  ///< mean σ_Z of the matches, mm
+  /// The stated area uncertainty: share of matches with |area error| ≤ 2 σ_area, and the mean
+  /// σ_area relative to the measured area, %.
+  double area_within_2sigma = 0, mean_sigma_area_pct = 0;
+  /// The stated volume uncertainty where the volume is seen (no upper bound): share of those
+  /// matches with |volume error| ≤ 2 σ_volume, and the mean σ_volume relative to the volume, %.
+  double volume_within_2sigma = 0, mean_sigma_volume_pct = 0;
   double severity_agreement = 0;   ///< share of matches whose ASTM level equals the truth severity
   double road_median_abs_mm = 0;   ///< median |height of the true intact road above the fitted surface|, mm
   double disparity_valid_fraction = 0;  ///< mean share of valid disparities
