@@ -167,7 +167,11 @@ SimCrackEvaluation EvaluateSimulatedCracks(const fs::path& dir, const SimCrackEv
     const SimFrameTruth frame = ReadSimFrame(survey, k);
     const cv::Mat &left = frame.left, &masks = frame.masks, &truth_disp = frame.truth_disparity_px;
     cv::Mat disparity = truth_disp;
-    if (!o.use_truth_disparity) disparity = ComputeDisparity(left, ReadSimRightImage(survey, k), o.disparity).disparity;
+    if (!o.use_truth_disparity) {
+      DisparityParams dp = o.disparity;
+      dp.camera_focal_px = g.f_px;  // as the disparity stage takes it from the calibration
+      disparity = ComputeDisparity(left, ReadSimRightImage(survey, k), dp).disparity;
+    }
     const FrameDamage fd = DetectDamage(disparity, left, g, o.damage);
     ms_cracks.push_back(fd.ms_cracks);
     ++r.frames;

@@ -165,7 +165,9 @@ SimDamageEvaluation EvaluateSimulatedDamage(const fs::path& dir, const SimDamage
     if (!o.use_truth_disparity) {
       const cv::Mat right = ReadSimRightImage(survey, k);
       const auto t0 = std::chrono::steady_clock::now();
-      DisparityResult dr = ComputeDisparity(left, right, o.disparity);
+      DisparityParams dp = o.disparity;
+      dp.camera_focal_px = g.f_px;  // as the disparity stage takes it from the calibration
+      DisparityResult dr = ComputeDisparity(left, right, dp);
       ms_disp.push_back(MsSince(t0));
       disparity = dr.disparity;
       if (o.use_sharp_disparity) sharp = dr.disparity_sharp;

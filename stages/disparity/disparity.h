@@ -74,6 +74,15 @@ struct DisparityParams {
   /// change (a pothole's wall) and would spread the far side's disparity up to 10 px onto the
   /// road. 0 = off; else >= 1.
   double refine_shift_ratio = 4.0;
+  /// GPT-SGM with camera_focal_px: the refine_window window's height shrinks to a square on the
+  /// road (its width kept; at least 5 rows): an oblique view foreshortens the road along the
+  /// rows (a ground square at depression angle a is sin a as tall as wide: 0.2-0.3 at the car's
+  /// 5-7 m), and a square window then spans a pothole's near and far walls and spreads them.
+  /// Nadir views keep the square window.
+  bool refine_ground_window = true;
+  /// Focal length of the rectified pair, px: set by the caller from the calibration (not a
+  /// survey option); 0 = unknown (refine_ground_window then has no effect).
+  double camera_focal_px = 0;
 
   int gpt_num_disparities = 32;  ///< GPT-SGM residual search range, px (road residual + damage depth)
   double gpt_delta_px = 8;       ///< delta: residual disparity of the road's row minimum; damage down to -delta fits
@@ -169,6 +178,9 @@ struct SubpixelRefineOptions {
   int highpass = 9;
   /// With smooth_window: shiftable smooth windows (DisparityParams::refine_shift_ratio); 0 = off, else >= 1.
   double shift_ratio = 0;
+  /// The window's height per image row (odd, 1..window; GroundWindowRows); empty = square. Each
+  /// band of rows the refinement runs on takes its middle row's.
+  std::vector<int> window_rows;
 };
 
 /// RefineSubpixel with the larger smooth window and the edge test. `window_value` (optional): the
@@ -176,6 +188,14 @@ struct SubpixelRefineOptions {
 /// where no smooth window runs): it keeps a pothole's wall where the smooth window spreads it.
 void RefineSubpixel(const cv::Mat& ref, const cv::Mat& target, cv::Mat* disparity, const cv::Mat& valid,
                     const SubpixelRefineOptions& options, cv::Mat* window_value = nullptr);
+
+/// Per image row, the height (odd, in [min(5, window), window]) of a window `window` px wide that
+/// covers a square on the road plane `road` (d = road disparity): a ground square at depression
+/// angle a appears sin a as tall as wide, and sin a = h/Z (Z: its depth, h: the camera's height)
+/// = d(row) / (f·B/h), with f·B/h = sqrt(d0^2 + f^2 |grad d|^2) (d0 at the image centre, the
+/// gradient the plane's) since the road's unit normal n gives d = (f·B/h)(n . ray). Rows above
+/// the horizon (d <= 0) and nadir views (ratio >= 1) keep `window`.
+std::vector<int> GroundWindowRows(const RoadModel& road, int width, int height, double focal_px, int window);
 
 /// Drops 4-connected regions of valid pixels (neighbour steps <= max_diff_px) with fewer than
 /// max_size pixels; sets their disparity to 0 and validity to 0.

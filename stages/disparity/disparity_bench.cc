@@ -172,7 +172,8 @@ int RunEuroc(const std::string& mav0, const std::string& out_dir, rs::DisparityP
 // Error map of GPT-SGM on a simulated pair: grey = not evaluated (darker: not road), green = road
 // within 0.3 px, cyan = road 0.3..1 px, yellow = road 1..3 px, red = road D1 error, blue = road invalid, magenta = pothole
 // error > 0.5 px. Written as <out>/<survey>_<frame>_errors.png.
-void WriteErrorMap(const rs::StereoPairWithTruth& p, const rs::DisparityParams& params, const std::string& out) {
+void WriteErrorMap(const rs::StereoPairWithTruth& p, rs::DisparityParams params, const std::string& out) {
+  params.camera_focal_px = p.focal_px;
   const rs::DisparityResult r = rs::ComputeDisparity(p.left, p.right, params);
   cv::Mat img;
   cv::cvtColor(p.left, img, cv::COLOR_GRAY2BGR);
@@ -229,7 +230,9 @@ void PrintRoadBands(const std::vector<rs::StereoPairWithTruth>& pairs, const rs:
   std::map<std::string, std::pair<std::vector<rs::RoadBandStats>, rs::RoadErrorStats>> pooled;
   std::vector<std::string> order;
   for (const auto& p : pairs) {
-    const rs::DisparityResult r = rs::ComputeDisparity(p.left, p.right, params);
+    rs::DisparityParams q = params;
+    q.camera_focal_px = p.focal_px;
+    const rs::DisparityResult r = rs::ComputeDisparity(p.left, p.right, q);
     const int H = p.gt.rows;
     std::vector<int> edges;
     for (int e : {0, 280, 360, 440, 520, 600, 720}) edges.push_back(e * H / 720);

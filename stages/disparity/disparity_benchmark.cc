@@ -72,6 +72,7 @@ std::vector<BenchPairResult> RunDisparityBenchmark(const std::vector<StereoPairW
           DisparityParams q = ours;
           q.method = m == 0 ? DisparityMethod::kGptSgm : DisparityMethod::kSgm;
           q.min_disparity = p.min_disparity, q.num_disparities = p.num_disparities;
+          q.camera_focal_px = p.focal_px;
           const DisparityResult res = ComputeDisparity(p.left, p.right, q);
           d = res.disparity, valid = res.valid;
           r.num_disparities = res.num_disparities, r.fell_back = res.fell_back, r.timings = res.timings;

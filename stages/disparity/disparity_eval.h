@@ -46,6 +46,7 @@ struct StereoPairWithTruth {
   cv::Mat road;         ///< CV_8U evaluation mask (synthetic: undamaged road); may be empty
   cv::Mat pothole;      ///< CV_8U pothole pixels (simulated surveys); may be empty
   int min_disparity = 0, num_disparities = 64;  ///< search range matching the scene
+  double focal_px = 0;  ///< rectified focal length where known (DisparityParams::camera_focal_px), else 0
 };
 
 /// The four Middlebury pairs under root (…/middlebury): Cloth3, Reindeer, Wood2 (half size,

@@ -107,6 +107,9 @@ const OptionTable<DisparityParams>& ParamsTable() {
                "than the best same-sized window holding the pixel at its edge or corner (a depth change such as a "
                "pothole's wall), that window's value is taken (0 = off; else >= 1)")
           .Min(0)
+          .Add("refine_ground_window", &DisparityParams::refine_ground_window,
+               "GPT-SGM: refine_window's window shrinks in height to a square on the road (oblique views; its width "
+               "kept, at least 5 rows; nadir views keep the square)")
           .Add("gpt_num_disparities", &DisparityParams::gpt_num_disparities,
                "GPT-SGM residual search range (road residual + damage depth)", "px")
           .Min(1)
@@ -222,7 +225,9 @@ void DisparityStage::Run(StageContext& ctx, const DisparityStageOptions& o) cons
           const RoadModel m = FitRoadModel(samples, prev_left.cols, prev_left.rows, o.params.road);
           if (m.reliable) prior = m;
         }
-        const DisparityResult r = ComputeDisparity(left, right, o.params, prior ? &*prior : nullptr);
+        DisparityParams params = o.params;
+        params.camera_focal_px = calib.left.fx;
+        const DisparityResult r = ComputeDisparity(left, right, params, prior ? &*prior : nullptr);
         WriteKittiDisparityPng((tmp / "disparity.png").string(), r.disparity, r.valid);
         cv::imwrite((tmp / "valid.png").string(), r.valid);
         if (o.write_sharp && !r.disparity_sharp.empty())

@@ -537,6 +537,91 @@ TEST(Disparity, RefineSubpixelShiftableWindowsKeepPotholeWalls) {
   EXPECT_LT(rms_shift, 0.05);
 }
 
+// GroundWindowRows against the closed form: a camera pitched t below the horizon, h above a flat
+// road, sees row v at depression-angle sine sin t + cos t (v - cy)/f (small columns offsets aside),
+// d = (f B/h)(that); the window's height is the odd number nearest 9 times it, within [5, 9].
+TEST(Disparity, GroundWindowRowsSquareOnTheRoad) {
+  const int W = 1280, H = 720;
+  const double f = 1000, B = 0.3, h = 1.5, cy = (H - 1) / 2.0;
+  auto nearest_odd = [](double x) {
+    int best = 1;
+    for (int k = 1; k <= 15; k += 2)
+      if (std::abs(k - x) < std::abs(best - x)) best = k;
+    return best;
+  };
+  for (const double pitch_deg : {15.0, 45.0}) {
+    const double t = pitch_deg * CV_PI / 180;
+    RoadModel road;
+    road.SetPlane(f * B / h * std::sin(t) - B / h * std::cos(t) * cy, 0.0, B / h * std::cos(t));
+    const std::vector<int> rows = GroundWindowRows(road, W, H, f, 9);
+    ASSERT_EQ(rows.size(), static_cast<size_t>(H));
+    for (int v = 0; v < H; ++v) {
+      const double aspect = std::sin(t) + std::cos(t) * (v - cy) / f;
+      const int expected = aspect <= 0 || aspect >= 1 ? 9 : std::clamp(nearest_odd(9 * aspect), 5, 9);
+      ASSERT_EQ(rows[v], expected) << "pitch " << pitch_deg << " row " << v << " aspect " << aspect;
+    }
+    if (pitch_deg == 15) {
+      EXPECT_EQ(rows[0], 9);      // above the horizon
+      EXPECT_EQ(rows[H / 2], 5);  // 6 m ahead: a ground square is 0.26 as tall as wide
+    } else {
+      EXPECT_EQ(rows[H / 2], 7);
+    }
+  }
+  // Nadir (no gradient) and an unknown focal length keep the square window.
+  RoadModel nadir;
+  nadir.SetPlane(50.0, 0.0, 0.0);
+  for (int r : GroundWindowRows(nadir, W, H, f, 9)) ASSERT_EQ(r, 9);
+  RoadModel pitched;
+  pitched.SetPlane(20.0, 0.0, 0.05);
+  for (int r : GroundWindowRows(pitched, W, H, 0.0, 9)) ASSERT_EQ(r, 9);
+}
+
+// A pothole foreshortened by an oblique view (60 px wide, 12 rows tall): the square 9x9 window
+// straddles its near and far walls from 4 rows away; the 9x5 window (GroundWindowRows) from 2.
+// Measured on the rows' spread (|error| > a quarter of the depth, rows from the walls).
+TEST(Disparity, RefineSubpixelGroundWindowKeepsForeshortenedWalls) {
+  const int W = 240, H = 140;
+  const double road = 5.3, floor = 4.6;
+  const cv::Rect pothole(90, 60, 60, 12);
+  auto truth = [&](int u, int v) { return pothole.contains(cv::Point(u, v)) ? floor : road; };
+  cv::Mat left(H, W, CV_8U), target(H, W, CV_8U);
+  cv::RNG rng(7);
+  for (int v = 0; v < H; ++v)
+    for (int x = 0; x < W; ++x) {
+      const double u_in = x + floor;
+      const double u = pothole.contains(cv::Point(static_cast<int>(std::floor(u_in)), v)) ? u_in : x + road;
+      left.at<uint8_t>(v, x) = cv::saturate_cast<uint8_t>(Texture(x, v) + rng.gaussian(2.0));
+      target.at<uint8_t>(v, x) = cv::saturate_cast<uint8_t>(Texture(u, v) + rng.gaussian(2.0));
+    }
+  cv::GaussianBlur(left, left, cv::Size(0, 0), 1.0), cv::GaussianBlur(target, target, cv::Size(0, 0), 1.0);
+  cv::Mat d0(H, W, CV_32F), valid(H, W, CV_8U, cv::Scalar(255));
+  for (int v = 0; v < H; ++v)
+    for (int u = 0; u < W; ++u) d0.at<float>(v, u) = static_cast<float>(std::round(truth(u, v)));
+  // Largest row distance from the near or far wall (columns 10 px inside the side walls) with an error above
+  // a quarter of the depth.
+  auto row_spread = [&](const cv::Mat& d) {
+    int spread = 0;
+    for (int v = 20; v < H - 20; ++v)
+      for (int u = pothole.x + 10; u < pothole.br().x - 10; ++u)
+        if (std::abs(d.at<float>(v, u) - truth(u, v)) > 0.25 * (road - floor)) {
+          const int dist = v < pothole.y ? pothole.y - v : v >= pothole.br().y ? v - pothole.br().y + 1
+                                                                               : std::min(v - pothole.y + 1, pothole.br().y - v);
+          spread = std::max(spread, dist);
+        }
+    return spread;
+  };
+  SubpixelRefineOptions o;
+  o.highpass = DisparityParams().refine_highpass_px;
+  cv::Mat d_square = d0.clone(), d_ground = d0.clone();
+  RefineSubpixel(left, target, &d_square, valid, o);
+  o.window_rows.assign(H, 5);
+  RefineSubpixel(left, target, &d_ground, valid, o);
+  const int spread_square = row_spread(d_square), spread_ground = row_spread(d_ground);
+  std::printf("rows spread: square %d, 9x5 %d\n", spread_square, spread_ground);
+  EXPECT_GE(spread_square, 4) << "the premise: the square window spreads the near and far walls";
+  EXPECT_LE(spread_ground, 2);
+}
+
 TEST(Disparity, BadParams) {
   DisparityParams params;
   params.p1 = 8;

@@ -178,6 +178,7 @@ std::vector<StereoPairWithTruth> LoadSimulatedSurvey(const fs::path& dir, const 
       }
     }
     p.min_disparity = 0;
+    p.focal_px = f;
     p.num_disparities = std::min(1024, (static_cast<int>(std::ceil(max_d)) + 8 + 15) / 16 * 16);
     out.push_back(std::move(p));
   }
