@@ -1,6 +1,8 @@
 #include "stages/damage/cracks.h"
 
 #include "stages/damage/measure.h"
+#include "stages/damage/order_statistic.h"
+#include "stages/damage/robust_stats.h"
 
 #include <opencv2/imgproc.hpp>
 #include <opencv2/ximgproc.hpp>
@@ -52,8 +54,7 @@ std::vector<int> RowElements(const cv::Mat& pixel_size_m, const CrackOptions& o)
     for (int u = 0; u < pixel_size_m.cols; u += 8)
       if (std::isfinite(p[u]) && p[u] > 0) ps.push_back(p[u]);
     if (ps.size() < 4) continue;
-    std::nth_element(ps.begin(), ps.begin() + ps.size() / 2, ps.end());
-    const double w_px = o.element_width_m / ps[ps.size() / 2];
+    const double w_px = o.element_width_m / LowerMedianInPlace(ps);
     const int k = 2 * static_cast<int>(std::lround((w_px - 1) / 2)) + 1;
     k_row[v] = std::clamp(k, o.min_scale_px, o.max_scale_px);
   }
@@ -86,21 +87,16 @@ cv::Mat ResponseOfGrey(const cv::Mat& grey, const cv::Mat& pixel_size_m, const C
 // Median and robust σ (1.4826·MAD, at least 1 grey level) of a sample; false when too small.
 bool RobustLevel(std::vector<uchar>& vals, double* med, double* sigma) {
   if (vals.size() < 100) return false;
-  // Grey levels counted once: the median (the size/2-th smallest, as nth_element) and the
-  // absolute deviations' histogram both follow from the counts.
+  // Grey levels counted once: the median and the MAD (both the lower median v[n/2], as
+  // nth_element) follow from the counts and the absolute deviations' counts.
   size_t count[256] = {0};
   for (uchar x : vals) ++count[x];
   const size_t k = vals.size() / 2;
-  size_t below = 0;
-  int m = 0;
-  while (below + count[m] <= k) below += count[m++];
+  const int m = KthSmallestOfCounts(count, 256, k);
   *med = m;
-  int hist[256] = {0};
-  for (int x = 0; x < 256; ++x) hist[std::abs(x - m)] += static_cast<int>(count[x]);
-  size_t acc = 0;
-  int mad = 0;
-  while (mad < 255 && (acc += hist[mad]) < vals.size() / 2 + 1) ++mad;
-  *sigma = std::max(1.0, 1.4826 * mad);
+  size_t dev[256] = {0};
+  for (int x = 0; x < 256; ++x) dev[std::abs(x - m)] += count[x];
+  *sigma = std::max(1.0, SigmaOfMedianAbs(KthSmallestOfCounts(dev, 256, k)));
   return true;
 }
 

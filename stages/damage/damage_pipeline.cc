@@ -5,6 +5,7 @@
 #include "stages/damage/floor_visibility.h"
 #include "stages/damage/image_edges.h"
 #include "stages/damage/measure.h"
+#include "stages/damage/order_statistic.h"
 #include "stages/damage/relief_noise.h"
 #include "stages/damage/relief_smooth.h"
 #include "stages/damage/road_islands.h"
@@ -76,9 +77,7 @@ double NearestDepthM(const cv::Mat& disparity_px, const StereoGeometry& g) {
       if (row[x] > 0 && std::isfinite(row[x])) samples.push_back(row[x]);
   }
   if (samples.empty()) return 0;
-  const auto k = samples.begin() + static_cast<std::ptrdiff_t>(0.98 * double(samples.size() - 1));
-  std::nth_element(samples.begin(), k, samples.end());
-  return g.f_px * g.baseline_m / *k;
+  return g.f_px * g.baseline_m / KthSmallestInPlace(samples, QuantileRankDown(0.98, samples.size()));
 }
 
 FrameDamage DetectDamage(const cv::Mat& input_disparity_px, const cv::Mat& left_image, const StereoGeometry& g,

@@ -1,6 +1,7 @@
 #include "stages/damage/floor_visibility.h"
 
 #include "stages/damage/measure.h"
+#include "stages/damage/order_statistic.h"
 
 #include <Eigen/Dense>
 
@@ -236,8 +237,7 @@ FloorVisibility AnalyseFloorVisibility(const cv::Mat& labels, int id, const cv::
   std::vector<double> starts;
   for (const Strip& st : strips)
     if (st.deep_start_m < 1e300) starts.push_back(st.deep_start_m);
-  std::nth_element(starts.begin(), starts.begin() + starts.size() / 2, starts.end());
-  const double deep_start_m = std::max(0.0, starts[starts.size() / 2]);
+  const double deep_start_m = std::max(0.0, LowerMedianInPlace(starts));
   // The grazing rays' depth, from as far behind the rim as the smoothing moved the deepest
   // part (rows nearer the rim mix the road in: a 120 mm cap at 5 m smoothed over 5 rows gave a
   // bound of 113 mm).
@@ -274,9 +274,7 @@ FloorVisibility AnalyseFloorVisibility(const cv::Mat& labels, int id, const cv::
   }
   WallTrend trend;
   if (!mids.empty()) {
-    std::nth_element(mids.begin(), mids.begin() + mids.size() / 2, mids.end());
-    std::nth_element(lows.begin(), lows.begin() + lows.size() / 2, lows.end());
-    trend.mid = mids[mids.size() / 2], trend.low = lows[lows.size() / 2], trend.ray_slope = tan_rim;
+    trend.mid = LowerMedianInPlace(mids), trend.low = LowerMedianInPlace(lows), trend.ray_slope = tan_rim;
   }
   double bound = 0, hidden_volume = 0, longest = 0, completed_volume = 0;
   std::vector<double> strip_max;  // completed max depth per strip with a shadow (in strip order)

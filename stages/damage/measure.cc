@@ -1,6 +1,8 @@
 #include "stages/damage/measure.h"
 
 #include "stages/damage/measurement_sigma.h"
+#include "stages/damage/order_statistic.h"
+#include "stages/damage/robust_stats.h"
 #include "stages/damage/scale_noise.h"
 
 #include <opencv2/imgproc.hpp>
@@ -99,15 +101,6 @@ std::vector<cv::Point> OutlineOf(const cv::Mat& labels, int id, const cv::Rect& 
 
 namespace {
 
-// Robust σ of a zero-centred sample from its absolute values: 1.4826 · their median (`a` is
-// reordered; not empty).
-template <class T>
-double SigmaOfAbsolute(std::vector<T>& a) {
-  const auto mid = a.begin() + static_cast<std::ptrdiff_t>(a.size() / 2);
-  std::nth_element(a.begin(), mid, a.end());
-  return 1.4826 * *mid;
-}
-
 // Distance (CV_32F) of every non-zero pixel of `mask` to its nearest zero pixel, in road units of
 // one column's width: a row counts `rows_per_px` (the road length of a pixel along the column
 // over its width across, rounded; 1 = square pixels). The mask is stretched row-wise, the
@@ -150,7 +143,7 @@ bool FitDepthPlane(const std::vector<cv::Point3f>& pts, double c[3], double* sig
     std::vector<double> res;
     for (const cv::Point3f& p : pts)
       if (const double r = residual(p); r <= 0) res.push_back(-r);
-    return res.size() < 10 ? 0.0 : SigmaOfAbsolute(res);
+    return res.size() < 10 ? 0.0 : RobustSigmaOfAbs(res);
   };
   if (!solve(0)) return false;
   for (int it = 0; it < 3; ++it) {
@@ -450,9 +443,7 @@ void ExtendToRim(cv::Mat& labels, const RoadRelief& r, double rim_depth_m, doubl
     }
     double floor_mm = rim_depth_m * 1000.0, plane[3] = {0, 0, 0}, ring_sigma = 0, depth99_mm = 0;
     if (!inside.empty()) {
-      auto at = inside.begin() + static_cast<long>(0.99 * (inside.size() - 1));
-      std::nth_element(inside.begin(), at, inside.end());
-      depth99_mm = *at;
+      depth99_mm = KthSmallestInPlace(inside, QuantileRankDown(0.99, inside.size()));
       floor_mm = std::max(floor_mm, rim_depth_fraction * depth99_mm);
     }
     if (ring.size() < 20 || !FitDepthPlane(ring, plane, &ring_sigma)) plane[0] = plane[1] = plane[2] = 0, ring_sigma = 0;
@@ -469,7 +460,7 @@ void ExtendToRim(cv::Mat& labels, const RoadRelief& r, double rim_depth_m, doubl
       for (size_t i = 0; i < ring.size(); ++i)
         if (std::isfinite(ring_raw[i]))
           res.push_back(std::abs(ring_raw[i] - static_cast<float>(plane[0] + plane[1] * ring[i].x + plane[2] * ring[i].y)));
-      if (res.size() >= 20) pixel_sigma = SigmaOfAbsolute(res);
+      if (res.size() >= 20) pixel_sigma = RobustSigmaOfAbs(res);
     }
     const double noise_mm = std::max(floor_mm, 3.0 * pixel_sigma);  // per pixel: above the noise too
     // The outline follows the depth, not the segmentation's superpixels: the instance's outer
@@ -609,7 +600,7 @@ void ExtendToRim(cv::Mat& labels, const RoadRelief& r, double rim_depth_m, doubl
           diff.push_back(std::abs(d));
       }
       double pair_sigma = pixel_sigma;
-      if (diff.size() >= 20) pair_sigma = SigmaOfAbsolute(diff) / std::sqrt(2.0);
+      if (diff.size() >= 20) pair_sigma = RobustSigmaOfAbs(diff) / std::sqrt(2.0);
       if (3 * pair_sigma < floor_mm)
         ExtendObliqueSides(lab, id, in0, rim_depth, obstacle, dist, band, level, pair_sigma, ring_window_px, depth99_mm,
                            e, far_up(boxes[id]));
@@ -791,9 +782,7 @@ std::vector<DamageInstance> MeasureDepressions(const cv::Mat& labels, const Road
       double sum = 0;
       for (double x : c.depth) sum += x;
       d.mean_depth_m = sum / c.depth.size();
-      auto it = c.depth.begin() + static_cast<long>(o.depth_percentile * (c.depth.size() - 1));
-      std::nth_element(c.depth.begin(), it, c.depth.end());
-      d.max_depth_m = *it;
+      d.max_depth_m = KthSmallestInPlace(c.depth, QuantileRankDown(o.depth_percentile, c.depth.size()));
       d.volume_m3 = c.volume + std::max(0.0, d.mean_depth_m) * (c.area - c.area_valid);
     }
     d.equivalent_diameter_m = std::sqrt(4.0 * d.area_m2 / CV_PI);

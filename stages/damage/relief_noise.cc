@@ -10,6 +10,8 @@
 #include <vector>
 
 #include "stages/damage/grid_fill.h"
+#include "stages/damage/order_statistic.h"
+#include "stages/damage/robust_stats.h"
 
 namespace rs {
 
@@ -49,9 +51,12 @@ cv::Mat NoiseOf(const cv::Mat& value, const cv::Mat& valid, double level, int ce
       // Road has about half its samples above the level; a cell with far fewer is mostly damage,
       // whose surroundings the local road correction bends: its neighbours' noise is used instead.
       if (up.size() < 20 || up.size() < 0.35 * seen) continue;
-      const auto k = up.begin() + static_cast<std::ptrdiff_t>(quantile * double(up.size() - 1) + (median ? 0.5 : 0.0));
-      std::nth_element(up.begin(), k, up.end());
-      grid.ptr<float>(gy)[gx] = static_cast<float>(median ? *k / 0.6745 : *k);
+      // The median (rank n/2) as a σ; another quantile (its rank rounded down) as it is.
+      if (median) {
+        grid.ptr<float>(gy)[gx] = static_cast<float>(SigmaOfOneSidedMedian(LowerMedianInPlace(up)));
+      } else {
+        grid.ptr<float>(gy)[gx] = KthSmallestInPlace(up, QuantileRankDown(quantile, up.size()));
+      }
     }
   });
   // Cells without road (obstacles, large damage, no disparity) take their neighbours' noise.

@@ -1,5 +1,7 @@
 #include "stages/damage/relief_smooth.h"
 
+#include "stages/damage/robust_stats.h"
+
 #include <opencv2/imgproc.hpp>
 #include <tbb/parallel_for.h>
 
@@ -107,11 +109,7 @@ double SmoothReliefRows(RoadRelief& r, const std::vector<cv::Size>& windows, int
         for (int u = 0; u < r.depth_below_mm.cols; u += 4)
           if (va[u]) dev.push_back(std::abs(td[u] - std::max(1e-3f, ts[u] * 255.0f / ws[u])));
       }
-      if (!dev.empty()) {
-        auto mid = dev.begin() + dev.size() / 2;
-        std::nth_element(dev.begin(), mid, dev.end());
-        sigma = 1.4826 * *mid;
-      }
+      if (!dev.empty()) sigma = RobustSigmaOfAbs(dev);
       sigma = std::max(sigma, 1e-4);  // quantised (truth) disparities: not below 1/10000 px
     }
   }

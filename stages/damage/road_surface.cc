@@ -21,6 +21,7 @@
 #include "stages/damage/order_statistic.h"
 #include "stages/damage/rect_merge.h"
 #include "stages/damage/relief_smooth.h"
+#include "stages/damage/robust_stats.h"
 
 namespace rs {
 namespace {
@@ -30,15 +31,6 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kTukeyC = 4.685;  // 95 % efficiency at the Gaussian
 
 bool ValidDisparity(float d) { return std::isfinite(d) && d > 0; }
-
-// Reorders `v`.
-double MedianInPlace(std::vector<double>& v) {
-  if (v.empty()) return kNaN;
-  auto mid = v.begin() + v.size() / 2;
-  std::nth_element(v.begin(), mid, v.end());
-  return *mid;
-}
-
 
 // Plane frame from a normal: n towards the camera, e1 along the camera x axis.
 void SetFrame(RoadSurface& s, Eigen::Vector3d n, const Eigen::Vector3d& origin) {
@@ -239,8 +231,7 @@ RoadSurface FitRoadSurface(const cv::Mat& disparity_px, const StereoGeometry& g,
         }
         // First round: scale floored at the plane band (a wide Tukey window, graduated
         // non-convexity); the second round shrinks to the data's own spread.
-        const double median_abs = absr.empty() ? kNaN : KthSmallestNonNegative(absr, absr.size() / 2);
-        sigma = std::max(round == 0 ? o.ransac_inlier_m : o.min_noise_m, 1.4826 * median_abs);
+        sigma = std::max(round == 0 ? o.ransac_inlier_m : o.min_noise_m, absr.empty() ? kNaN : RobustSigmaOfAbs(absr));
         for (size_t i = 0; i < pts.size(); ++i) {
           if (obstacle[i] || offroad[i]) { w[i] = 0; continue; }
           const double x = res[i] / (kTukeyC * sigma);
@@ -287,7 +278,7 @@ RoadSurface FitRoadSurface(const cv::Mat& disparity_px, const StereoGeometry& g,
       if (offroad[i]) r_of[region[i]].push_back(h[i] - s.coeffs.dot(mono[i]));
     bool rejoined = false;
     for (int k = 1; k < n_regions; ++k)
-      if (!r_of[k].empty() && std::abs(MedianInPlace(r_of[k])) < o.ransac_inlier_m) {
+      if (!r_of[k].empty() && std::abs(LowerMedianInPlace(r_of[k])) < o.ransac_inlier_m) {
         rejoined = true;
         for (size_t i = 0; i < pts.size(); ++i)
           if (region[i] == k) offroad[i] = 0;
@@ -329,8 +320,7 @@ cv::Mat CellGrid(const cv::Mat& depth, const cv::Mat& ignore, const cv::Mat& pri
         }
       }
       if (vals.size() * 2 < static_cast<size_t>(seen) || vals.empty()) continue;
-      std::nth_element(vals.begin(), vals.begin() + vals.size() / 2, vals.end());
-      grid.at<float>(gy, gx) = vals[vals.size() / 2];
+      grid.at<float>(gy, gx) = LowerMedianInPlace(vals);
     }
   });
   // Fill empty cells (damage, obstacles, no disparity) from their neighbours, ring by ring.
@@ -348,7 +338,8 @@ cv::Mat UpsampleGrid(const cv::Mat& grid, int cell, cv::Size size) {
   return full(cv::Rect({}, size));  // a view: no copy
 }
 
-// Robust spread (1.4826 · MAD, mm) of the depth below the model after `corr` outside `ignore`.
+// Robust spread (1.4826 · median |residual|, mm) of the depth below the model after `corr`
+// outside `ignore`.
 double ResidualSpreadMm(const cv::Mat& depth, const cv::Mat& ignore, const cv::Mat& corr) {
   std::vector<float> e;
   for (int v = 0; v < corr.rows; v += 4) {
@@ -358,9 +349,7 @@ double ResidualSpreadMm(const cv::Mat& depth, const cv::Mat& ignore, const cv::M
     for (int u = 0; u < corr.cols; u += 4)
       if (!ob[u] && std::isfinite(x[u])) e.push_back(std::abs(x[u] - c[u]));
   }
-  if (e.empty()) return 0;
-  std::nth_element(e.begin(), e.begin() + e.size() / 2, e.end());
-  return 1.4826 * e[e.size() / 2];
+  return e.empty() ? 0 : RobustSigmaOfAbs(e);
 }
 
 // Local correction (mm) of the depth below the model `depth` (uncorrected), leaving out

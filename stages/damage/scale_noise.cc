@@ -1,5 +1,8 @@
 #include "stages/damage/scale_noise.h"
 
+#include "stages/damage/order_statistic.h"
+#include "stages/damage/robust_stats.h"
+
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
@@ -9,18 +12,6 @@
 #include <vector>
 
 namespace rs {
-
-namespace {
-
-// The q-quantile (nearest rank) of `x`, reordering it; NaN when empty.
-double Quantile(std::vector<float>& x, double q) {
-  if (x.empty()) return std::numeric_limits<double>::quiet_NaN();
-  const auto k = x.begin() + static_cast<std::ptrdiff_t>(q * double(x.size() - 1) + 0.5);
-  std::nth_element(x.begin(), k, x.end());
-  return *k;
-}
-
-}  // namespace
 
 ScaleNoise MeasureScaleNoise(const cv::Mat& depth_below_mm, const cv::Mat& road, const cv::Mat& labels, int id,
                              const cv::Rect& box, int window_px, int margin_px, double spike_quantile,
@@ -84,9 +75,11 @@ ScaleNoise MeasureScaleNoise(const cv::Mat& depth_below_mm, const cv::Mat& road,
     out.sigma_mm = out.spike_mm = nan;
     return out;
   }
-  out.spike_mm = Quantile(up, spike_quantile);
-  const double sigma_up = Quantile(up, 0.5) / 0.6745, sigma_down = Quantile(down, 0.5) / 0.6745;
-  out.sigma_mm = std::max(floor_sigma_mm, std::min(sigma_up, 2.0 * sigma_down));
+  // The spike quantile's rank rounds to nearest (LocalReliefSpikes' rounds down).
+  out.spike_mm = KthSmallestInPlace(up, QuantileRankNearest(spike_quantile, up.size()));
+  const double sigma_up = SigmaOfOneSidedMedian(LowerMedianInPlace(up));
+  const double sigma_down = SigmaOfOneSidedMedian(LowerMedianInPlace(down));
+  out.sigma_mm = std::max(floor_sigma_mm, TwoSidedSigma(sigma_up, sigma_down, 2.0));
   return out;
 }
 

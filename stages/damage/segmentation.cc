@@ -10,6 +10,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "stages/damage/order_statistic.h"
 #include "stages/damage/rect_merge.h"
 
 namespace rs {
@@ -211,11 +212,7 @@ ReliefScale EstimateReliefScale(const ReliefImage& relief) {
   }
   if (vals.size() < 100) throw std::invalid_argument("relief image: fewer than 100 valid pixels");
   // Histogram between the 1st and 99th percentiles, smoothed; its peak is the road level.
-  auto at = [&](double q) {
-    auto it = vals.begin() + static_cast<long>(q * (vals.size() - 1));
-    std::nth_element(vals.begin(), it, vals.end());
-    return static_cast<double>(*it);
-  };
+  auto at = [&](double q) { return static_cast<double>(KthSmallestInPlace(vals, QuantileRankDown(q, vals.size()))); };
   double lo = at(0.01), hi = at(0.99);
   ReliefScale s;
   if (!(hi > lo)) {  // constant image: no noise to measure

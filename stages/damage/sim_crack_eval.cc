@@ -3,6 +3,7 @@
 #include "formats/geojson/geojson.h"
 #include "formats/input_error.h"
 #include "stages/damage/measure.h"
+#include "stages/damage/order_statistic.h"
 #include "stages/damage/sim_truth.h"
 #include "survey/atomic_file.h"
 #include "stages/simulate/road_scene.h"
@@ -73,11 +74,7 @@ std::map<int, TruthCrack> ReadTruthCracks(const fs::path& dir, const sim::RoadGe
   return out;
 }
 
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-  return v[v.size() / 2];
-}
+double Median(std::vector<double> v) { return v.empty() ? 0 : LowerMedianInPlace(v); }
 
 // The part of a centreline seen in this frame, sampled every 5 mm: a sample counts when it
 // projects into the image, lies within the analysed range and the truth surface there is not

@@ -4,6 +4,7 @@
 #include "formats/input_error.h"
 #include "stages/damage/damage_output.h"
 #include "stages/damage/measure.h"
+#include "stages/damage/order_statistic.h"
 #include "stages/damage/sim_truth.h"
 #include "stages/simulate/road_scene.h"
 #include "stages/simulate/simulation_options.h"
@@ -102,10 +103,7 @@ cv::Mat ObstacleMask(const cv::Mat& truth_disp, const StereoGeometry& g, const E
 }
 
 double Percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0;
-  const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * (v.size() - 1) + 0.5));
-  std::nth_element(v.begin(), v.begin() + k, v.end());
-  return v[k];
+  return v.empty() ? 0 : KthSmallestInPlace(v, QuantileRankNearest(q, v.size()));
 }
 
 double MsSince(std::chrono::steady_clock::time_point t0) {

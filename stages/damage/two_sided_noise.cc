@@ -2,6 +2,7 @@
 
 #include "stages/damage/measure.h"
 #include "stages/damage/relief_noise.h"
+#include "stages/damage/robust_stats.h"
 
 #include <algorithm>
 #include <stdexcept>
@@ -19,15 +20,15 @@ cv::Mat TwoSidedReliefNoise(const cv::Mat& noise_up, const cv::Mat& value, const
     throw std::invalid_argument("TwoSidedReliefNoise: instances must be CV_16U of the value's size");
   // Mirrored about the level: the samples below become the samples above.
   const cv::Mat down = LocalReliefNoiseBelow(value, valid, level, cell_px, floor_sigma, max_ratio);
-  // min(noise_up, down · max_asymmetry) in one pass (as cv::min of the scaled copy: OpenCV scales
-  // a float image by the float factor, one rounding; both maps finite, never below the floor).
+  // TwoSidedSigma per pixel in one pass (as cv::min of the scaled copy: OpenCV scales a float
+  // image by the float factor, one rounding; both maps finite, never below the floor).
   const float k = static_cast<float>(max_asymmetry);
   cv::Mat out(value.size(), CV_32F);
   for (int v = 0; v < out.rows; ++v) {
     const float* up = noise_up.ptr<float>(v);
     const float* dn = down.ptr<float>(v);
     float* o = out.ptr<float>(v);
-    for (int u = 0; u < out.cols; ++u) o[u] = std::min(up[u], dn[u] * k);
+    for (int u = 0; u < out.cols; ++u) o[u] = TwoSidedSigma(up[u], dn[u], k);
   }
   if (instances.empty()) return out;
   // Leave-one-out per instance: its own walls are not the road's spread below. The box is grown
@@ -50,7 +51,7 @@ cv::Mat TwoSidedReliefNoise(const cv::Mat& noise_up, const cv::Mat& value, const
       const float* dn = own_down.ptr<float>(v - roi.y) - roi.x;
       float* o = out.ptr<float>(v);
       for (int u = b.x; u < b.x + b.width; ++u)
-        if (l[u] == id) o[u] = std::min(up[u], dn[u] * k);
+        if (l[u] == id) o[u] = TwoSidedSigma(up[u], dn[u], k);
     }
   }
   return out;
