@@ -478,26 +478,38 @@ TEST(Disparity, RefineSubpixelHighPassNearPaintEdge) {
 // window 4 px, the 21x21 one up to 10 px where it agrees with the 9x9 value within its bound);
 // the shiftable windows take, beside a wall, the window on the pixel's own side. Edge spread:
 // the farthest a pixel off by more than a quarter of the step lies from the nearest wall.
-TEST(Disparity, RefineSubpixelShiftableWindowsKeepPotholeWalls) {
-  const int W = 240, H = 140;
-  const double road = 5.3, floor = 4.6;  // px; the pothole: columns [90, 150), rows [40, 100)
-  const cv::Rect pothole(90, 40, 60, 60);
+// A textured road at disparity `road` px with a flat-floored pothole `pothole` at `floor` px (each
+// view's noise 2 grey levels, seeded, both views blurred by 1 px like the stage's pre-smoothing),
+// and SGM's integer winners: the exact disparity rounded.
+struct PotholePair {
+  cv::Mat left, target, sgm, valid;
+};
+PotholePair RenderPotholePair(int W, int H, double road, double floor, const cv::Rect& pothole, uint64_t seed) {
   constexpr double kNoise = 2.0;  // grey levels, each view
-  auto truth = [&](int u, int v) { return pothole.contains(cv::Point(u, v)) ? floor : road; };
-  cv::Mat left(H, W, CV_8U), target(H, W, CV_8U);
-  cv::RNG rng(5);
+  PotholePair p{cv::Mat(H, W, CV_8U), cv::Mat(H, W, CV_8U), cv::Mat(H, W, CV_32F), cv::Mat(H, W, CV_8U, cv::Scalar(255))};
+  cv::RNG rng(seed);
   for (int v = 0; v < H; ++v)
     for (int x = 0; x < W; ++x) {
       // Target column x shows the left column u with u - d(u) = x: the floor's where that lands inside.
       const double u_in = x + floor;
       const double u = pothole.contains(cv::Point(static_cast<int>(std::floor(u_in)), v)) ? u_in : x + road;
-      left.at<uint8_t>(v, x) = cv::saturate_cast<uint8_t>(Texture(x, v) + rng.gaussian(kNoise));
-      target.at<uint8_t>(v, x) = cv::saturate_cast<uint8_t>(Texture(u, v) + rng.gaussian(kNoise));
+      p.left.at<uint8_t>(v, x) = cv::saturate_cast<uint8_t>(Texture(x, v) + rng.gaussian(kNoise));
+      p.target.at<uint8_t>(v, x) = cv::saturate_cast<uint8_t>(Texture(u, v) + rng.gaussian(kNoise));
     }
-  cv::GaussianBlur(left, left, cv::Size(0, 0), 1.0), cv::GaussianBlur(target, target, cv::Size(0, 0), 1.0);
-  cv::Mat d0(H, W, CV_32F), valid(H, W, CV_8U, cv::Scalar(255));
+  cv::GaussianBlur(p.left, p.left, cv::Size(0, 0), 1.0), cv::GaussianBlur(p.target, p.target, cv::Size(0, 0), 1.0);
   for (int v = 0; v < H; ++v)
-    for (int u = 0; u < W; ++u) d0.at<float>(v, u) = static_cast<float>(std::round(truth(u, v)));
+    for (int u = 0; u < W; ++u)
+      p.sgm.at<float>(v, u) = static_cast<float>(std::round(pothole.contains(cv::Point(u, v)) ? floor : road));
+  return p;
+}
+
+TEST(Disparity, RefineSubpixelShiftableWindowsKeepPotholeWalls) {
+  const int W = 240, H = 140;
+  const double road = 5.3, floor = 4.6;  // px; the pothole: columns [90, 150), rows [40, 100)
+  const cv::Rect pothole(90, 40, 60, 60);
+  auto truth = [&](int u, int v) { return pothole.contains(cv::Point(u, v)) ? floor : road; };
+  const PotholePair pair = RenderPotholePair(W, H, road, floor, pothole, 5);
+  const cv::Mat &left = pair.left, &target = pair.target, &d0 = pair.sgm, &valid = pair.valid;
   // Edge spread (px) and the RMS error of the road and floor more than 12 px from any wall.
   auto measure = [&](const cv::Mat& d, double* rms_far) {
     int spread = 0;
@@ -584,19 +596,8 @@ TEST(Disparity, RefineSubpixelGroundWindowKeepsForeshortenedWalls) {
   const double road = 5.3, floor = 4.6;
   const cv::Rect pothole(90, 60, 60, 12);
   auto truth = [&](int u, int v) { return pothole.contains(cv::Point(u, v)) ? floor : road; };
-  cv::Mat left(H, W, CV_8U), target(H, W, CV_8U);
-  cv::RNG rng(7);
-  for (int v = 0; v < H; ++v)
-    for (int x = 0; x < W; ++x) {
-      const double u_in = x + floor;
-      const double u = pothole.contains(cv::Point(static_cast<int>(std::floor(u_in)), v)) ? u_in : x + road;
-      left.at<uint8_t>(v, x) = cv::saturate_cast<uint8_t>(Texture(x, v) + rng.gaussian(2.0));
-      target.at<uint8_t>(v, x) = cv::saturate_cast<uint8_t>(Texture(u, v) + rng.gaussian(2.0));
-    }
-  cv::GaussianBlur(left, left, cv::Size(0, 0), 1.0), cv::GaussianBlur(target, target, cv::Size(0, 0), 1.0);
-  cv::Mat d0(H, W, CV_32F), valid(H, W, CV_8U, cv::Scalar(255));
-  for (int v = 0; v < H; ++v)
-    for (int u = 0; u < W; ++u) d0.at<float>(v, u) = static_cast<float>(std::round(truth(u, v)));
+  const PotholePair pair = RenderPotholePair(W, H, road, floor, pothole, 7);
+  const cv::Mat &left = pair.left, &target = pair.target, &d0 = pair.sgm, &valid = pair.valid;
   // Largest row distance from the near or far wall (columns 10 px inside the side walls) with an error above
   // a quarter of the depth.
   auto row_spread = [&](const cv::Mat& d) {
