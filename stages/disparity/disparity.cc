@@ -501,7 +501,7 @@ void FitRow(const float* __restrict sum_n, const float* __restrict sum_d, const 
 void RefinePass(const cv::Mat& ref_hp, const cv::Mat& target_hp, const cv::Mat& sgm, cv::Mat* out, const cv::Mat& valid,
                 const cv::Mat& terms, int window, float min_weight, cv::Mat* agree = nullptr, float agree_px = 0,
                 RefineFit* fit = nullptr, const std::vector<int>* window_rows = nullptr) {
-  const int W = ref_hp.cols, H = ref_hp.rows, r_max = window / 2;
+  const int W = ref_hp.cols, H = ref_hp.rows, rh = window / 2;  // rh: the window's half-width
   // Bands of rows, each on its own: the terms of the band's rows and r rows either side (the
   // window's reach; recomputed by both neighbouring bands — cheaper than a second parallel pass
   // over full-size maps), column sums sliding down the band, then each row's horizontal sums.
@@ -513,9 +513,8 @@ void RefinePass(const cv::Mat& ref_hp, const cv::Mat& target_hp, const cv::Mat& 
   tbb::parallel_for(tbb::blocked_range<int>(0, H, kBand), [&](const tbb::blocked_range<int>& rows) {
     // The band's window: `window` wide, its middle row's height (GroundWindowRows) tall; the
     // texture gate scales with the window's area (the same mean squared slope).
-    const int rh = r_max;
-    const int r = window_rows ? (*window_rows)[(rows.begin() + rows.end()) / 2] / 2 : r_max;
-    const float band_min_weight = min_weight * static_cast<float>(2 * r + 1) / static_cast<float>(2 * r_max + 1);
+    const int r = window_rows ? (*window_rows)[(rows.begin() + rows.end()) / 2] / 2 : rh;
+    const float band_min_weight = min_weight * static_cast<float>(2 * r + 1) / static_cast<float>(2 * rh + 1);
     const int y0 = std::max(0, rows.begin() - r), y1 = std::min(H, rows.end() + r);
     // The fit's squared residuals are summed about an offset near the band's disparities (the
     // rounded mean of its middle row): about 0, float sums of k^2-sized terms would cancel.
