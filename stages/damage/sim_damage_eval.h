@@ -69,6 +69,12 @@ struct PotholeObservation {
   double max_depth_bound_m = kUnknown, volume_upper_m3 = kUnknown;
   /// Truth: the floor is hidden in this frame (visible depth > 10 mm short of the true depth).
   bool truth_floor_hidden = false;
+
+  /// The stage's errors against the truth (detected observations): max depth in mm, area and
+  /// volume in % of the true value.
+  double MaxDepthErrorMm() const { return 1000.0 * (max_depth_m - truth_max_depth_m); }
+  double AreaErrorPct() const { return 100.0 * (area_m2 - truth_area_m2) / truth_area_m2; }
+  double VolumeErrorPct() const { return 100.0 * (volume_m3 - truth_volume_m3) / truth_volume_m3; }
 };
 
 /// Distribution of an error over the matched observations.

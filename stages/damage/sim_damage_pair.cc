@@ -9,15 +9,6 @@
 
 namespace rs {
 
-namespace {
-
-double AreaErrorPct(const PotholeObservation& o) { return 100.0 * (o.area_m2 - o.truth_area_m2) / o.truth_area_m2; }
-double VolumeErrorPct(const PotholeObservation& o) {
-  return 100.0 * (o.volume_m3 - o.truth_volume_m3) / o.truth_volume_m3;
-}
-
-}  // namespace
-
 PairedObstacleFigures CompareObstacleRenders(const SimDamageEvaluation& with_obstacles,
                                              const SimDamageEvaluation& without) {
   std::map<std::pair<std::string, int>, const PotholeObservation*> with;
@@ -37,11 +28,10 @@ PairedObstacleFigures CompareObstacleRenders(const SimDamageEvaluation& with_obs
     }
     if (!a.detected) continue;
     ++f.paired;
-    area.push_back(std::abs(AreaErrorPct(a)) - std::abs(AreaErrorPct(b)));
-    volume.push_back(std::abs(VolumeErrorPct(a)) - std::abs(VolumeErrorPct(b)));
+    area.push_back(std::abs(a.AreaErrorPct()) - std::abs(b.AreaErrorPct()));
+    volume.push_back(std::abs(a.VolumeErrorPct()) - std::abs(b.VolumeErrorPct()));
     if (a.floor_visible && b.floor_visible)
-      depth.push_back(1000.0 * (std::abs(a.max_depth_m - a.truth_max_depth_m) -
-                                std::abs(b.max_depth_m - b.truth_max_depth_m)));
+      depth.push_back(std::abs(a.MaxDepthErrorMm()) - std::abs(b.MaxDepthErrorMm()));
   }
   auto worst = [](const std::vector<double>& v) {
     return v.empty() ? 0.0 : std::max(0.0, *std::max_element(v.begin(), v.end()));

@@ -34,10 +34,10 @@ SimDamageSurveyFigures SummarisePerPothole(const SimDamageEvaluation& evaluation
     f.kept.push_back(*k);
     if (k->floor_visible) {
       ++f.floor_seen;
-      depth_mm.push_back(1000.0 * (k->max_depth_m - k->truth_max_depth_m));
+      depth_mm.push_back(k->MaxDepthErrorMm());
     }
-    area_pct.push_back(100.0 * (k->area_m2 - k->truth_area_m2) / k->truth_area_m2);
-    volume_pct.push_back(100.0 * (k->volume_m3 - k->truth_volume_m3) / k->truth_volume_m3);
+    area_pct.push_back(k->AreaErrorPct());
+    volume_pct.push_back(k->VolumeErrorPct());
     range_m.push_back(k->range_m);
     const char letter = static_cast<char>(std::toupper(SeverityLevelName(k->astm)[0]));
     severity_ok += k->truth_severity == std::string(1, letter);
