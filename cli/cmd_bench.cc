@@ -13,12 +13,12 @@
 #include "cli/tool_util.h"
 #include "formats/input_error.h"
 #include "formats/stereo/image_io.h"
-#include "stages/damage/damage_pipeline.h"
-#include "stages/disparity/disparity_benchmark.h"
-#include "stages/disparity/disparity_io.h"
-#include "stages/disparity/sim_disparity_eval.h"
-#include "stages/simulate/simulate.h"
-#include "stages/simulate/simulation_options.h"
+#include "eval/damage/damage_bench.h"
+#include "eval/disparity/disparity_benchmark.h"
+#include "formats/disparity/disparity_io.h"
+#include "eval/disparity/sim_disparity_eval.h"
+#include "sim/simulate.h"
+#include "sim/simulation_options.h"
 
 namespace rs {
 namespace {
@@ -43,10 +43,8 @@ StereoPairWithTruth LoadUserPair(const std::string& spec, int min_d, int num_d) 
   const std::string lp = spec.substr(0, c1), rp = spec.substr(c1 + 1, c2 - c1 - 1), gp = spec.substr(c2 + 1);
   p.name = std::filesystem::path(lp).stem().string();
   p.left = LoadGray8(lp), p.right = LoadGray8(rp);
-  const cv::Mat gt16 = ReadImageAnyDepth(gp, true);
-  if (gt16.depth() != CV_16U) throw InputError(InputLocation::File(gp), "expected a KITTI 16-bit disparity PNG");
   cv::Mat valid;
-  FromKittiDisparity16(gt16, &p.gt, &valid);
+  p.gt = ReadKittiDisparityPng(gp, &valid);
   if (p.right.size() != p.left.size() || p.gt.size() != p.left.size())
     throw InputError(InputLocation::File(spec), "left, right and truth differ in size");
   p.nonocc = valid;  // no occlusion truth: every truth pixel counts as non-occluded

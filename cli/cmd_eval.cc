@@ -16,28 +16,18 @@
 #include "formats/geojson/geojson.h"
 #include "formats/input_error.h"
 #include "formats/trajectory/trajectory_file.h"
-#include "stages/damage/damage_eval.h"
-#include "stages/damage/sim_damage_eval.h"
-#include "stages/disparity/disparity_eval.h"
-#include "stages/disparity/disparity_io.h"
-#include "stages/slam/trajectory_plot.h"
-#include "stages/slam/trajectory_report.h"
+#include "eval/damage/damage_eval.h"
+#include "eval/damage/sim_damage_eval.h"
+#include "eval/disparity/disparity_eval.h"
+#include "formats/disparity/disparity_io.h"
+#include "eval/trajectory/trajectory_plot.h"
+#include "eval/trajectory/trajectory_report.h"
 
 namespace rs {
 namespace fs = std::filesystem;
 namespace {
 
 // ---------------------------------------------------------------- disparity
-
-cv::Mat ReadKitti(const fs::path& path, cv::Mat* valid) {
-  const cv::Mat png = ReadImageAnyDepth(path, true);
-  if (png.depth() != CV_16U)
-    throw InputError(InputLocation::File(path.string()), "expected a KITTI 16-bit disparity PNG (d * 256)");
-  cv::Mat d, v;
-  FromKittiDisparity16(png, &d, &v);
-  if (valid) *valid = v;
-  return d;
-}
 
 nlohmann::json ToJson(const DisparityMetrics& m) {
   if (m.evaluated == 0) return nullptr;
@@ -67,7 +57,7 @@ int RunEvalDisparity(const DisparityArgs& a) {
                                   "pixels", "density", "bad-1", "bad-2", "bad-3", "D1", "EPE px");
   for (size_t i = 0; i < pairs.size(); ++i) {
     cv::Mat valid;
-    const cv::Mat est = ReadKitti(pairs[i].est, &valid), gt = ReadKitti(pairs[i].truth, nullptr);
+    const cv::Mat est = ReadKittiDisparityPng(pairs[i].est, &valid), gt = ReadKittiDisparityPng(pairs[i].truth);
     if (est.size() != gt.size())
       throw InputError(InputLocation::File(pairs[i].est.string()),
                        fmt::format("size {}x{} differs from the truth's {}x{}", est.cols, est.rows, gt.cols, gt.rows));

@@ -4,7 +4,7 @@
 
 #include "cli/command.h"
 #include "cli/option_flags.h"
-#include "stages/simulate/simulate.h"
+#include "sim/simulate.h"
 #include "survey/progress.h"
 
 namespace rs {

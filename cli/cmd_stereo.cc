@@ -20,7 +20,7 @@
 #include "formats/stereo/image_io.h"
 #include "formats/stereo/rectifier.h"
 #include "stages/disparity/disparity.h"
-#include "stages/disparity/disparity_io.h"
+#include "formats/disparity/disparity_io.h"
 
 namespace rs {
 namespace {

@@ -23,8 +23,8 @@
 
 #include "formats/flightlog/track_csv.h"
 #include "formats/stereo/calibration_yaml.h"
-#include "stages/disparity/disparity_eval.h"
-#include "stages/disparity/disparity_io.h"
+#include "eval/disparity/disparity_eval.h"
+#include "formats/disparity/disparity_io.h"
 
 namespace rs {
 namespace {

@@ -1,8 +1,8 @@
 #include "stages/damage/cracks.h"
 
 #include "stages/damage/measure.h"
-#include "stages/damage/order_statistic.h"
-#include "stages/damage/robust_stats.h"
+#include "survey/stats/order_statistic.h"
+#include "survey/stats/robust_stats.h"
 
 #include <opencv2/imgproc.hpp>
 #include <opencv2/ximgproc.hpp>

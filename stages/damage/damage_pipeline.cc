@@ -5,7 +5,7 @@
 #include "stages/damage/floor_visibility.h"
 #include "stages/damage/image_edges.h"
 #include "stages/damage/measure.h"
-#include "stages/damage/order_statistic.h"
+#include "survey/stats/order_statistic.h"
 #include "stages/damage/relief_noise.h"
 #include "stages/damage/relief_smooth.h"
 #include "stages/damage/road_islands.h"
@@ -63,13 +63,13 @@ void DamageOptions::Check() const {
   severity.Check();
 }
 
-double AnalysedRangeM(const StereoGeometry& g, const DamageOptions& o, double nearest_depth_m) {
+double AnalysedRangeM(const RectifiedStereo& g, const DamageOptions& o, double nearest_depth_m) {
   if (!(o.road.max_depth_sigma_m > 0)) return std::numeric_limits<double>::infinity();
   const double sigma_range = std::sqrt(o.road.max_depth_sigma_m * g.f_px * g.baseline_m / o.measure.sigma_disparity_px);
   return std::max(sigma_range, o.road.min_range_factor * nearest_depth_m);
 }
 
-double NearestDepthM(const cv::Mat& disparity_px, const StereoGeometry& g) {
+double NearestDepthM(const cv::Mat& disparity_px, const RectifiedStereo& g) {
   std::vector<float> samples;
   for (int y = 0; y < disparity_px.rows; y += 4) {
     const float* row = disparity_px.ptr<float>(y);
@@ -80,7 +80,7 @@ double NearestDepthM(const cv::Mat& disparity_px, const StereoGeometry& g) {
   return g.f_px * g.baseline_m / KthSmallestInPlace(samples, QuantileRankDown(0.98, samples.size()));
 }
 
-FrameDamage DetectDamage(const cv::Mat& input_disparity_px, const cv::Mat& left_image, const StereoGeometry& g,
+FrameDamage DetectDamage(const cv::Mat& input_disparity_px, const cv::Mat& left_image, const RectifiedStereo& g,
                          const DamageOptions& o, const cv::Mat& sharp_disparity_px) {
   o.Check();
   if (!left_image.empty() && left_image.size() != input_disparity_px.size())
@@ -270,42 +270,6 @@ TransformedSegmentation SegmentTransformedDisparity(const cv::Mat& transformed, 
     AddCracks(cracks, out.labels, out.instances);
   }
   return out;
-}
-
-DamageBench BenchDetectDamage(int width, int height, int repeats) {
-  const SyntheticRoadScene scene = BenchmarkRoadScene(width, height);
-  const cv::Mat disparity = scene.Render(), image = scene.RenderImage();
-  const DamageOptions options;
-  std::vector<double> wall, cpu, steps[6];
-  DamageBench b;
-  for (int i = 0; i < std::max(1, repeats); ++i) {
-    const auto t0 = std::chrono::steady_clock::now();
-    const std::clock_t c0 = std::clock();
-    const FrameDamage f = DetectDamage(disparity, image, scene.geometry, options);
-    const auto t1 = std::chrono::steady_clock::now();
-    const cv::Mat overlay = RenderOverlay(image, f.labels, f.instances);
-    const std::string json = DetectionsToJson(f.instances).dump(2);
-    cpu.push_back(1000.0 * double(std::clock() - c0) / CLOCKS_PER_SEC);
-    wall.push_back(MsSince(t0));
-    steps[0].push_back(f.ms_road), steps[1].push_back(f.ms_segment), steps[2].push_back(f.ms_measure);
-    steps[3].push_back(f.ms_cracks), steps[4].push_back(MsSince(t1));
-    const auto t2 = std::chrono::steady_clock::now();
-    std::vector<uchar> png;
-    cv::imencode(".png", f.labels, png);
-    cv::imencode(".png", overlay, png);
-    steps[5].push_back(MsSince(t2));
-    b.potholes = b.cracks = b.others = 0;
-    for (const DamageInstance& d : f.instances)
-      (d.type == DamageType::kPothole ? b.potholes : d.type == DamageType::kCrack ? b.cracks : b.others)++;
-  }
-  auto median = [](std::vector<double> v) {
-    std::sort(v.begin(), v.end());
-    return v[v.size() / 2];
-  };
-  b.wall_ms = median(wall), b.cpu_ms = median(cpu);
-  b.road_ms = median(steps[0]), b.segment_ms = median(steps[1]), b.measure_ms = median(steps[2]);
-  b.cracks_ms = median(steps[3]), b.outputs_ms = median(steps[4]), b.encode_ms = median(steps[5]);
-  return b;
 }
 
 }  // namespace rs

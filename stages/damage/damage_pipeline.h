@@ -7,7 +7,6 @@
 #include "stages/damage/damage_types.h"
 #include "stages/damage/road_surface.h"
 #include "stages/damage/segmentation.h"
-#include "stages/damage/synthetic_scene.h"
 
 #include <opencv2/core.hpp>
 
@@ -40,11 +39,11 @@ struct FrameDamage {
 /// Farthest camera depth analysed: where σ_Z(Z) = Z²·σ_d/(f·B) reaches road.max_depth_sigma_m
 /// (infinite when 0), but at least road.min_range_factor × `nearest_depth_m` (the frame's
 /// nearest road depth; 0 = unknown).
-double AnalysedRangeM(const StereoGeometry& geometry, const DamageOptions& options, double nearest_depth_m = 0);
+double AnalysedRangeM(const RectifiedStereo& geometry, const DamageOptions& options, double nearest_depth_m = 0);
 
 /// Nearest road depth of a frame: the depth at the 98th-percentile disparity (robust to a few
 /// wrong large disparities), from a 4-pixel grid of valid pixels; 0 when none is valid.
-double NearestDepthM(const cv::Mat& disparity_px, const StereoGeometry& geometry);
+double NearestDepthM(const cv::Mat& disparity_px, const RectifiedStereo& geometry);
 
 /// Road model, transformed disparity, depressions (measured on the road model) and, when
 /// `left_image` is given, cracks; every instance graded. `disparity_px`: CV_32F, ≤ 0 invalid;
@@ -52,7 +51,7 @@ double NearestDepthM(const cv::Mat& disparity_px, const StereoGeometry& geometry
 /// same size): the disparity stage's second image (its small refinement window alone), on which
 /// the volumes are summed (sharp_disparity.h); empty = the one image throughout.
 /// Throws std::invalid_argument on bad inputs or options.
-FrameDamage DetectDamage(const cv::Mat& disparity_px, const cv::Mat& left_image, const StereoGeometry& geometry,
+FrameDamage DetectDamage(const cv::Mat& disparity_px, const cv::Mat& left_image, const RectifiedStereo& geometry,
                          const DamageOptions& options, const cv::Mat& sharp_disparity_px = cv::Mat());
 
 /// Segmentation of an 8/16-bit or float transformed-disparity image with unknown scale
@@ -69,18 +68,5 @@ TransformedSegmentation SegmentTransformedDisparity(const cv::Mat& transformed, 
                                                     const DamageOptions& options,
                                                     std::optional<ReliefScale> scale = std::nullopt);
 
-/// Per-frame timing of the damage stage beyond the disparity on BenchmarkRoadScene (several
-/// potholes, a slab, cracks, noisy disparity with holes): DetectDamage with the left image,
-/// the overlay and the detections JSON (as text), medians over runs. PNG encoding and file
-/// writing are timed separately (`encode_ms`) and not included in wall_ms / cpu_ms.
-struct DamageBench {
-  double wall_ms = 0;  ///< elapsed time (inflated when other processes share the cores)
-  double cpu_ms = 0;   ///< process CPU time summed over threads: the single-core wall time bound
-  double road_ms = 0, segment_ms = 0, measure_ms = 0, cracks_ms = 0, outputs_ms = 0;  ///< steps (wall)
-  double encode_ms = 0;  ///< PNG encoding of the label image and the overlay (wall), not in the above
-  int potholes = 0, cracks = 0, others = 0;  ///< instances found in the frame (last run)
-};
-/// Runs the per-frame work `repeats` times on a width × height BenchmarkRoadScene.
-DamageBench BenchDetectDamage(int width, int height, int repeats);
 
 }  // namespace rs

@@ -4,6 +4,7 @@
 
 #include <opencv2/imgcodecs.hpp>
 
+#include "formats/disparity/disparity_io.h"
 #include "formats/stereo/calibration_yaml.h"
 #include "formats/stereo/image_io.h"
 #include "stages/damage/damage_output.h"
@@ -21,16 +22,6 @@ const OptionTable<DamageOptions>& DamageOptionsTable() {
                             .Include("measure", &DamageOptions::measure, MeasureOptions::Table())
                             .Include("severity", &DamageOptions::severity, SeverityOptions::Table());
   return t;
-}
-
-// KITTI 16-bit disparity (value = d * 256, 0 = invalid) as float px, <= 0 invalid.
-cv::Mat ReadKittiDisparity(const fs::path& path) {
-  const cv::Mat png = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
-  if (png.empty() || png.type() != CV_16UC1)
-    throw InputError(InputLocation::File(path.string()), "expected a 16-bit KITTI disparity PNG");
-  cv::Mat d;
-  png.convertTo(d, CV_32F, 1.0 / 256.0);
-  return d;
 }
 
 }  // namespace
@@ -72,7 +63,7 @@ StageInfo DamageStage::Info() {
 void DamageStage::Run(StageContext& ctx, const DamageStageOptions& o) const {
   const auto frames = ReadFrameIndex(ctx.input_dir("frames") / "frames.csv");
   const StereoCalibration calib = ReadCalibrationYaml(ctx.input_dir("calibration") / "calibration.yaml");
-  const StereoGeometry geometry{calib.left.fx, calib.left.cx, calib.left.cy, calib.BaselineM()};
+  const RectifiedStereo geometry = RectifiedStereoOf(calib);
   const fs::path disparity_dir = ctx.input_dir("disparity");
 
   ctx.ForEachFrame(
@@ -81,11 +72,11 @@ void DamageStage::Run(StageContext& ctx, const DamageStageOptions& o) const {
         const fs::path in_dir = StageContext::FrameDirIn(disparity_dir, f.id);
         if (fs::exists(in_dir / "skipped.json"))
           throw InputError(InputLocation::File((in_dir / "skipped.json").string()), "no disparity (frame skipped)");
-        const cv::Mat disparity = ReadKittiDisparity(in_dir / "disparity.png");
+        const cv::Mat disparity = ReadKittiDisparityPng(in_dir / disparity_files::kDisparity);
         // The disparity stage's second image (its small refinement window alone), where it wrote
         // one: the volumes are summed on it.
-        const fs::path sharp_path = in_dir / "disparity_sharp.png";
-        const cv::Mat sharp = fs::exists(sharp_path) ? ReadKittiDisparity(sharp_path) : cv::Mat();
+        const fs::path sharp_path = in_dir / disparity_files::kSharp;
+        const cv::Mat sharp = fs::exists(sharp_path) ? ReadKittiDisparityPng(sharp_path) : cv::Mat();
         const cv::Mat left = LoadGray8(f.left);
         FrameDamage result;
         try {
@@ -93,7 +84,7 @@ void DamageStage::Run(StageContext& ctx, const DamageStageOptions& o) const {
         } catch (const std::invalid_argument& e) {
           // The algorithm rejects this frame's data (e.g. too few road points): a
           // counted skip with the reason, not a failed survey.
-          throw InputError(InputLocation::File((in_dir / "disparity.png").string()), e.what());
+          throw InputError(InputLocation::File((in_dir / disparity_files::kDisparity).string()), e.what());
         }
         WriteLabelPng((tmp / "labels.png").string(), result.labels);
         nlohmann::json detections = {{"frame", f.id.value},

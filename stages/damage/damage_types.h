@@ -4,6 +4,8 @@
 
 #include <opencv2/core.hpp>
 
+#include "formats/rectified_stereo.h"
+
 #include <limits>
 #include <string>
 #include <vector>
@@ -12,16 +14,6 @@ namespace rs {
 
 /// Marks a measurement that could not be made (e.g. no calibration).
 inline constexpr double kUnknown = std::numeric_limits<double>::quiet_NaN();
-
-/// Rectified stereo geometry of the reference (left) camera: Z = f·B / d.
-struct StereoGeometry {
-  double f_px = 0;        ///< focal length, px (fx of the rectified pair)
-  double cx_px = 0;       ///< principal point column, px
-  double cy_px = 0;       ///< principal point row, px
-  double baseline_m = 0;  ///< stereo baseline, m
-  /// True when f and B are positive and finite (principal point may be anywhere).
-  bool Valid() const;
-};
 
 /// Kind of damage an instance was classified as.
 enum class DamageType { kPothole, kCrack, kOther };

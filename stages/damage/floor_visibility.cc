@@ -1,7 +1,7 @@
 #include "stages/damage/floor_visibility.h"
 
 #include "stages/damage/measure.h"
-#include "stages/damage/order_statistic.h"
+#include "survey/stats/order_statistic.h"
 
 #include <Eigen/Dense>
 
@@ -138,7 +138,7 @@ Completion CompleteHidden(const std::vector<std::pair<double, double>>& seen, do
 }  // namespace
 
 FloorVisibility AnalyseFloorVisibility(const cv::Mat& labels, int id, const cv::Rect& box, const RoadRelief& r,
-                                       const StereoGeometry& g, const RoadSurface& s, const MeasureOptions& o,
+                                       const RectifiedStereo& g, const RoadSurface& s, const MeasureOptions& o,
                                        double max_depth_m, double volume_m3, double area_m2, double sigma_depth_m) {
   FloorVisibility out;
   if (!(max_depth_m > 0) || box.empty()) return out;
@@ -326,7 +326,7 @@ FloorVisibility AnalyseFloorVisibility(const cv::Mat& labels, int id, const cv::
 }
 
 void AnalyseFloorVisibility(std::vector<DamageInstance>& instances, const cv::Mat& labels, const RoadRelief& r,
-                            const StereoGeometry& g, const RoadSurface& s, const MeasureOptions& o) {
+                            const RectifiedStereo& g, const RoadSurface& s, const MeasureOptions& o) {
   const std::vector<cv::Rect> boxes = LabelBoxes(labels);
   for (DamageInstance& d : instances) {
     if (d.type == DamageType::kCrack) continue;

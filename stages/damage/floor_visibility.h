@@ -47,7 +47,7 @@ struct FloorVisibility {
 /// `area_m2` and `sigma_depth_m` are the instance's measurements (MeasureDepressions).
 /// Walls in the shadow are assumed no steeper on average than options.hidden_wall_slope.
 FloorVisibility AnalyseFloorVisibility(const cv::Mat& labels, int id, const cv::Rect& box, const RoadRelief& relief,
-                                       const StereoGeometry& geometry, const RoadSurface& surface,
+                                       const RectifiedStereo& geometry, const RoadSurface& surface,
                                        const MeasureOptions& options, double max_depth_m, double volume_m3,
                                        double area_m2, double sigma_depth_m);
 
@@ -55,6 +55,6 @@ FloorVisibility AnalyseFloorVisibility(const cv::Mat& labels, int id, const cv::
 /// max depth and stores the result in the instance's floor fields: max_depth_m and volume_m3
 /// become the estimates, the measured values move to max_depth_seen_m and volume_seen_m3.
 void AnalyseFloorVisibility(std::vector<DamageInstance>& instances, const cv::Mat& labels, const RoadRelief& relief,
-                            const StereoGeometry& geometry, const RoadSurface& surface, const MeasureOptions& options);
+                            const RectifiedStereo& geometry, const RoadSurface& surface, const MeasureOptions& options);
 
 }  // namespace rs

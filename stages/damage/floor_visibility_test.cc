@@ -1,4 +1,5 @@
 #include "stages/damage/floor_visibility.h"
+#include "sim/synthetic_damage_scene.h"
 
 #include "stages/damage/damage_output.h"
 #include "stages/damage/damage_pipeline.h"
@@ -179,7 +180,7 @@ struct Pan {
 
 struct PanFrame {
   cv::Mat disparity;
-  StereoGeometry geometry;
+  RectifiedStereo geometry;
   double visible_depth_m = 0;  ///< deepest point any pixel sees
 };
 
@@ -187,7 +188,7 @@ PanFrame RenderPan(const Pan& pan) {
   const double height_m = 1.5, th = 15 * CV_PI / 180;
   PanFrame out;
   out.geometry = Scene({height_m, 15, 0.05, 0.2, pan.z_m}).geometry;
-  const StereoGeometry& g = out.geometry;
+  const RectifiedStereo& g = out.geometry;
   const Eigen::Vector3d up(0, -std::cos(th), -std::sin(th)), e1 = Eigen::Vector3d::UnitX(), e2 = up.cross(e1);
   const double yz = (-height_m / pan.z_m - up.z()) / up.y();
   const Eigen::Vector3d c0 = pan.z_m * Eigen::Vector3d(0, yz, 1);

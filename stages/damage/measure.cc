@@ -1,8 +1,8 @@
 #include "stages/damage/measure.h"
 
 #include "stages/damage/measurement_sigma.h"
-#include "stages/damage/order_statistic.h"
-#include "stages/damage/robust_stats.h"
+#include "survey/stats/order_statistic.h"
+#include "survey/stats/robust_stats.h"
 #include "stages/damage/scale_noise.h"
 
 #include <opencv2/imgproc.hpp>
@@ -17,11 +17,11 @@
 
 namespace rs {
 
-double StereoDepthSigma(double z_m, double sigma_d, const StereoGeometry& g) {
+double StereoDepthSigma(double z_m, double sigma_d, const RectifiedStereo& g) {
   return z_m * z_m * sigma_d / (g.f_px * g.baseline_m);
 }
 
-cv::Mat PixelAreaOnRoad(const RoadRelief& r, const StereoGeometry& g, const RoadSurface& s) {
+cv::Mat PixelAreaOnRoad(const RoadRelief& r, const RectifiedStereo& g, const RoadSurface& s) {
   cv::Mat area(r.road_depth_m.size(), CV_32F);
   const double k = 1.0 / (g.f_px * g.f_px * std::max(s.camera_height_m, 1e-9));
   tbb::parallel_for(0, area.rows, [&](int v) {
@@ -713,7 +713,7 @@ bool ConfirmedAtScale(const cv::Mat& depth_below_mm, const cv::Mat& road, const 
 
 }  // namespace
 
-std::vector<DamageInstance> MeasureDepressions(const cv::Mat& labels, const RoadRelief& r, const StereoGeometry& g,
+std::vector<DamageInstance> MeasureDepressions(const cv::Mat& labels, const RoadRelief& r, const RectifiedStereo& g,
                                                const RoadSurface& s, const MeasureOptions& o, const cv::Mat& noise_px,
                                                const cv::Mat& volume_depth) {
   if (labels.type() != CV_16UC1 || labels.size() != r.depth_below_mm.size())

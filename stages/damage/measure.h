@@ -14,7 +14,7 @@ namespace rs {
 
 /// Road-plane area of each pixel, m² (CV_32F; NaN off-road): a pixel ray meeting the
 /// plane at camera depth Z covers Z³ / (f² · h), h = camera height above the plane.
-cv::Mat PixelAreaOnRoad(const RoadRelief& relief, const StereoGeometry& geometry, const RoadSurface& surface);
+cv::Mat PixelAreaOnRoad(const RoadRelief& relief, const RectifiedStereo& geometry, const RoadSurface& surface);
 
 /// Sets each instance of `labels` (in place) to the part of the road it lowers, as the depth
 /// shows it: the threshold of the unsupervised segmentation stops short of the shallow rim, and
@@ -60,7 +60,7 @@ void ExtendToRim(cv::Mat& labels, const RoadRelief& relief, double rim_depth_m, 
 /// window makes the floor beside a wall shallower and spreads the wall beyond the outline); where
 /// it is NaN the relief's depth is summed.
 std::vector<DamageInstance> MeasureDepressions(const cv::Mat& labels, const RoadRelief& relief,
-                                               const StereoGeometry& geometry, const RoadSurface& surface,
+                                               const RectifiedStereo& geometry, const RoadSurface& surface,
                                                const MeasureOptions& options, const cv::Mat& noise_px = cv::Mat(),
                                                const cv::Mat& volume_depth_below_mm = cv::Mat());
 
@@ -82,6 +82,6 @@ std::vector<cv::Point> OutlineOf(const cv::Mat& labels, int id, const cv::Rect& 
 std::vector<cv::Rect> LabelBoxes(const cv::Mat& labels);
 
 /// Stereo depth uncertainty σ_Z = Z²·σ_d / (f·B), m.
-double StereoDepthSigma(double z_m, double sigma_disparity_px, const StereoGeometry& geometry);
+double StereoDepthSigma(double z_m, double sigma_disparity_px, const RectifiedStereo& geometry);
 
 }  // namespace rs

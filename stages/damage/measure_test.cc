@@ -1,4 +1,5 @@
 #include "stages/damage/measure.h"
+#include "sim/synthetic_damage_scene.h"
 
 #include "stages/damage/damage_pipeline.h"
 

@@ -10,8 +10,8 @@
 #include <vector>
 
 #include "stages/damage/grid_fill.h"
-#include "stages/damage/order_statistic.h"
-#include "stages/damage/robust_stats.h"
+#include "survey/stats/order_statistic.h"
+#include "survey/stats/robust_stats.h"
 
 namespace rs {
 

@@ -1,6 +1,6 @@
 #include "stages/damage/relief_smooth.h"
 
-#include "stages/damage/robust_stats.h"
+#include "survey/stats/robust_stats.h"
 
 #include <opencv2/imgproc.hpp>
 #include <tbb/parallel_for.h>
@@ -17,7 +17,7 @@ int Odd(double x) { return std::max(1, 2 * static_cast<int>(std::floor(0.5 * x))
 
 }  // namespace
 
-std::vector<double> RoadRowElongation(int rows, const StereoGeometry& g, const Eigen::Vector3d& n) {
+std::vector<double> RoadRowElongation(int rows, const RectifiedStereo& g, const Eigen::Vector3d& n) {
   std::vector<double> out(std::max(0, rows), 1.0);
   // Point where the ray of (u, v) meets the plane, up to the camera height: r / (−n·r) (the
   // camera is on the normal's side, so a ray reaching the road has n·r < 0).
@@ -40,7 +40,7 @@ std::vector<double> RoadRowElongation(int rows, const StereoGeometry& g, const E
   return out;
 }
 
-std::vector<cv::Size> ReliefSmoothWindows(int rows, const StereoGeometry& g, const Eigen::Vector3d& n, int w,
+std::vector<cv::Size> ReliefSmoothWindows(int rows, const RectifiedStereo& g, const Eigen::Vector3d& n, int w,
                                           bool ground) {
   std::vector<cv::Size> out(std::max(0, rows), cv::Size(w, w));
   if (!ground || w <= 1) return out;

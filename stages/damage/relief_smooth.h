@@ -16,7 +16,7 @@ namespace rs {
 /// column, for a road plane with unit `normal` towards the camera: 1 for a camera facing the
 /// road, ~3.5 for a car camera 1.5 m high looking at road 5 m ahead; 1 where the ray misses the
 /// road. Clamped to [1/16, 16].
-std::vector<double> RoadRowElongation(int rows, const StereoGeometry& geometry, const Eigen::Vector3d& normal);
+std::vector<double> RoadRowElongation(int rows, const RectifiedStereo& geometry, const Eigen::Vector3d& normal);
 
 /// Box-filter window (width, height in px, both odd) for each of `rows` image rows.
 /// `ground` false: window_px × window_px everywhere. `ground` true: about window_px² pixels
@@ -25,7 +25,7 @@ std::vector<double> RoadRowElongation(int rows, const StereoGeometry& geometry, 
 /// height window_px / √e, width window_px² / height, e = road length of a pixel along the
 /// image column / across it (1 for a camera facing the road, ~3.5 for a car camera 1.5 m
 /// high at 5 m). Rows whose ray misses the road keep the square window.
-std::vector<cv::Size> ReliefSmoothWindows(int rows, const StereoGeometry& geometry, const Eigen::Vector3d& normal,
+std::vector<cv::Size> ReliefSmoothWindows(int rows, const RectifiedStereo& geometry, const Eigen::Vector3d& normal,
                                           int window_px, bool ground);
 
 /// Normalised box filter over valid pixels of the relief's transformed disparity and depth

@@ -46,7 +46,7 @@ float WindowMean(const cv::Mat& value, const cv::Mat& valid, int u, int v, cv::S
 // at h / tan φ; along the column a pixel spans h / sin²φ · dφ, across h / sin φ · du / f / √(1+y²),
 // so e = 1 / (sin φ · √(1 + y²)).
 TEST(ReliefSmooth, RowElongationOfACarAndANadirCamera) {
-  const StereoGeometry g{1000.0, 640.0, 360.0, 0.3};
+  const RectifiedStereo g{1000.0, 640.0, 360.0, 0.3};
   const std::vector<double> car = RoadRowElongation(720, g, Up(15));
   for (const int v : {360, 500, 719}) {
     const double y = (v - 360) / 1000.0, phi = 15 * kDeg + std::atan(y);
@@ -59,7 +59,7 @@ TEST(ReliefSmooth, RowElongationOfACarAndANadirCamera) {
 }
 
 TEST(ReliefSmooth, WindowsKeepTheSampleCountAndAreSquareOnTheRoad) {
-  const StereoGeometry g{1000.0, 640.0, 360.0, 0.3};
+  const RectifiedStereo g{1000.0, 640.0, 360.0, 0.3};
   const std::vector<cv::Size> car = ReliefSmoothWindows(720, g, Up(15), 7, true);
   EXPECT_EQ(car[360], cv::Size(17, 3));  // e = 3.86: 7 / √e = 3.6 → 3 rows, 49 / 3 → 17 columns
   EXPECT_EQ(car[0], cv::Size(7, 7));     // no road: the square window

@@ -18,10 +18,10 @@
 #include <vector>
 
 #include "stages/damage/grid_fill.h"
-#include "stages/damage/order_statistic.h"
+#include "survey/stats/order_statistic.h"
 #include "stages/damage/rect_merge.h"
 #include "stages/damage/relief_smooth.h"
-#include "stages/damage/robust_stats.h"
+#include "survey/stats/robust_stats.h"
 
 namespace rs {
 namespace {
@@ -63,7 +63,7 @@ inline V4d Abs4(V4d x) { return x < 0 ? -x : x; }  // sign of zero irrelevant: o
 
 // x = (u − cx) / f of the pixel ray, for the columns u = u0 .. u0 + n − 1 (one division per
 // column instead of per pixel; the same values).
-std::vector<double> RayColumns(const StereoGeometry& g, int u0, int n) {
+std::vector<double> RayColumns(const RectifiedStereo& g, int u0, int n) {
   std::vector<double> xs(std::max(0, n));
   for (int u = 0; u < n; ++u) xs[u] = (u + u0 - g.cx_px) / g.f_px;
   return xs;
@@ -71,18 +71,13 @@ std::vector<double> RayColumns(const StereoGeometry& g, int u0, int n) {
 
 }  // namespace
 
-bool StereoGeometry::Valid() const {
-  return std::isfinite(f_px) && f_px > 0 && std::isfinite(baseline_m) && baseline_m > 0 && std::isfinite(cx_px) &&
-         std::isfinite(cy_px);
-}
-
 double RoadSurface::DepthBelow(const Eigen::Vector3d& p) const {
   const Eigen::Vector3d r = p - origin_m;
   const double q = coeffs.dot(Monomials(e1.dot(r) / scale_m, e2.dot(r) / scale_m));
   return q - normal.dot(r);
 }
 
-double RoadSurface::RayDepth(const StereoGeometry& g, double u, double v) const {
+double RoadSurface::RayDepth(const RectifiedStereo& g, double u, double v) const {
   // P = Z·ray; s, t, h are affine in Z, so h = q(s, t) is a quadratic in Z.
   const Eigen::Vector3d ray((u - g.cx_px) / g.f_px, (v - g.cy_px) / g.f_px, 1.0);
   const double as = e1.dot(ray) / scale_m, bs = -e1.dot(origin_m) / scale_m;
@@ -105,7 +100,7 @@ double RoadSurface::RayDepth(const StereoGeometry& g, double u, double v) const 
   return z > 0 ? z : kNaN;
 }
 
-RoadSurface FitRoadSurface(const cv::Mat& disparity_px, const StereoGeometry& g, const RoadModelOptions& o) {
+RoadSurface FitRoadSurface(const cv::Mat& disparity_px, const RectifiedStereo& g, const RoadModelOptions& o) {
   if (!g.Valid()) throw std::invalid_argument("road surface: stereo geometry needs f > 0 and baseline > 0");
   if (disparity_px.type() != CV_32FC1) throw std::invalid_argument("road surface: disparity must be CV_32FC1");
   o.Check();
@@ -429,7 +424,7 @@ void CorrectPixels4(const double* xs, double y, double nx, double ny, double nz,
 // disparity, depth and road depth are read from there and written to new images of `r` (row by
 // row, while in cache: no separate copy of the frame); `r` needs only its masks then.
 void ApplyCorrection(RoadRelief& r, const cv::Mat& corr, const cv::Mat& disparity_px, cv::Point at,
-                     const StereoGeometry& g, const RoadSurface& s, const RoadModelOptions& o,
+                     const RectifiedStereo& g, const RoadSurface& s, const RoadModelOptions& o,
                      const RoadRelief* from = nullptr) {
   r.correction_mm = corr;
   if (from) {
@@ -462,7 +457,7 @@ void ApplyCorrection(RoadRelief& r, const cv::Mat& corr, const cv::Mat& disparit
 }
 
 // The relief smoothing's window per image row (relief_smooth.h).
-std::vector<cv::Size> SmoothWindows(int rows, const StereoGeometry& g, const RoadSurface& s, const RoadModelOptions& o) {
+std::vector<cv::Size> SmoothWindows(int rows, const RectifiedStereo& g, const RoadSurface& s, const RoadModelOptions& o) {
   return ReliefSmoothWindows(rows, g, s.normal, o.relief_smooth_px, o.relief_smooth_ground);
 }
 
@@ -576,7 +571,7 @@ void EvaluatePixels4(const ModelConstants& k, const double* xs, double y, const 
 }
 
 // The quadratic model evaluated on the pixels of `roi` (the relief's pixel (0, 0) is roi.tl()).
-RoadRelief EvaluateRect(const cv::Mat& disparity_px, const StereoGeometry& g, const RoadSurface& s,
+RoadRelief EvaluateRect(const cv::Mat& disparity_px, const RectifiedStereo& g, const RoadSurface& s,
                         const RoadModelOptions& o, const cv::Rect& roi) {
   RoadRelief r;
   const cv::Size size = roi.size();
@@ -612,14 +607,14 @@ RoadRelief EvaluateRect(const cv::Mat& disparity_px, const StereoGeometry& g, co
 
 }  // namespace
 
-RoadRelief EvaluateRoadModel(const cv::Mat& disparity_px, const StereoGeometry& g, const RoadSurface& s,
+RoadRelief EvaluateRoadModel(const cv::Mat& disparity_px, const RectifiedStereo& g, const RoadSurface& s,
                              const RoadModelOptions& o) {
   if (!g.Valid()) throw std::invalid_argument("road relief: stereo geometry needs f > 0 and baseline > 0");
   if (disparity_px.type() != CV_32FC1) throw std::invalid_argument("road relief: disparity must be CV_32FC1");
   return EvaluateRect(disparity_px, g, s, o, cv::Rect({}, disparity_px.size()));
 }
 
-RoadRelief FinishRoadRelief(const RoadRelief& evaluated, const cv::Mat& disparity_px, const StereoGeometry& g,
+RoadRelief FinishRoadRelief(const RoadRelief& evaluated, const cv::Mat& disparity_px, const RectifiedStereo& g,
                             const RoadSurface& s, const RoadModelOptions& o, const cv::Mat& exclude) {
   if (!exclude.empty() && (exclude.type() != CV_8UC1 || exclude.size() != disparity_px.size()))
     throw std::invalid_argument("road relief: exclude mask must be CV_8U of the disparity's size");
@@ -644,7 +639,7 @@ RoadRelief FinishRoadRelief(const RoadRelief& evaluated, const cv::Mat& disparit
   return r;
 }
 
-void RefineRoadRelief(RoadRelief& r, const RoadRelief& evaluated, const cv::Mat& disparity_px, const StereoGeometry& g,
+void RefineRoadRelief(RoadRelief& r, const RoadRelief& evaluated, const cv::Mat& disparity_px, const RectifiedStereo& g,
                       const RoadSurface& s, const RoadModelOptions& o, const cv::Mat& exclude) {
   if (o.local_cell_px <= 0) return;
   if (evaluated.depth_below_mm.size() != disparity_px.size() || r.correction_grid_mm.empty() ||
@@ -688,7 +683,7 @@ void RefineRoadRelief(RoadRelief& r, const RoadRelief& evaluated, const cv::Mat&
   r.correction_grid_mm = c.grid;
 }
 
-RoadRelief ComputeRoadRelief(const cv::Mat& disparity_px, const StereoGeometry& g, const RoadSurface& s,
+RoadRelief ComputeRoadRelief(const cv::Mat& disparity_px, const RectifiedStereo& g, const RoadSurface& s,
                              const RoadModelOptions& o, const cv::Mat& exclude) {
   return FinishRoadRelief(EvaluateRoadModel(disparity_px, g, s, o), disparity_px, g, s, o, exclude);
 }

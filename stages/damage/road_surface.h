@@ -33,22 +33,22 @@ struct RoadSurface {
   /// Road height q at plane coordinates of P, minus P's height: > 0 below the road.
   double DepthBelow(const Eigen::Vector3d& p_cam) const;
   /// Depth Z (camera z) where the pixel ray (u, v) meets the surface; NaN if it misses.
-  double RayDepth(const StereoGeometry& g, double u, double v) const;
+  double RayDepth(const RectifiedStereo& g, double u, double v) const;
 };
 
 /// Camera-frame point (m) on the ray of pixel (u, v) at depth z (camera z, m).
-inline Eigen::Vector3d CameraPointAtDepth(const StereoGeometry& g, double u, double v, double z) {
+inline Eigen::Vector3d CameraPointAtDepth(const RectifiedStereo& g, double u, double v, double z) {
   return {(u - g.cx_px) * z / g.f_px, (v - g.cy_px) * z / g.f_px, z};
 }
 
 /// Camera-frame point (m) of pixel (u, v) with disparity d (px): Z = f·B / d.
-inline Eigen::Vector3d CameraPointFromDisparity(const StereoGeometry& g, double u, double v, double d) {
+inline Eigen::Vector3d CameraPointFromDisparity(const RectifiedStereo& g, double u, double v, double d) {
   return CameraPointAtDepth(g, u, v, g.f_px * g.baseline_m / d);
 }
 
 /// Fits the road surface to a disparity map (CV_32F, px; ≤ 0 or NaN invalid).
 /// Throws std::invalid_argument on bad geometry or too few valid disparities.
-RoadSurface FitRoadSurface(const cv::Mat& disparity_px, const StereoGeometry& geometry,
+RoadSurface FitRoadSurface(const cv::Mat& disparity_px, const RectifiedStereo& geometry,
                            const RoadModelOptions& options);
 
 /// Per-pixel products of the road model.
@@ -73,7 +73,7 @@ struct RoadRelief {
 /// obstacles excluded; twice, the second band ±3× the first pass' spread), empty cells filled from
 /// their neighbours, 3×3 smoothed, bilinearly interpolated.
 /// `exclude` (optional CV_8U, non-zero = known damage) is left out of the local correction.
-RoadRelief ComputeRoadRelief(const cv::Mat& disparity_px, const StereoGeometry& geometry,
+RoadRelief ComputeRoadRelief(const cv::Mat& disparity_px, const RectifiedStereo& geometry,
                              const RoadSurface& surface, const RoadModelOptions& options,
                              const cv::Mat& exclude = cv::Mat());
 
@@ -83,9 +83,9 @@ RoadRelief ComputeRoadRelief(const cv::Mat& disparity_px, const StereoGeometry& 
 /// correction_mm left empty);
 /// FinishRoadRelief = local correction and smoothing applied to it (`evaluated` unchanged; the
 /// result shares its masks).
-RoadRelief EvaluateRoadModel(const cv::Mat& disparity_px, const StereoGeometry& geometry,
+RoadRelief EvaluateRoadModel(const cv::Mat& disparity_px, const RectifiedStereo& geometry,
                              const RoadSurface& surface, const RoadModelOptions& options);
-RoadRelief FinishRoadRelief(const RoadRelief& evaluated, const cv::Mat& disparity_px, const StereoGeometry& geometry,
+RoadRelief FinishRoadRelief(const RoadRelief& evaluated, const cv::Mat& disparity_px, const RectifiedStereo& geometry,
                             const RoadSurface& surface, const RoadModelOptions& options,
                             const cv::Mat& exclude = cv::Mat());
 
@@ -93,7 +93,7 @@ RoadRelief FinishRoadRelief(const RoadRelief& evaluated, const cv::Mat& disparit
 /// `evaluated` (the untouched EvaluateRoadModel result it was made from), updating only the
 /// regions whose correction changed: the same result as ComputeRoadRelief(..., exclude).
 void RefineRoadRelief(RoadRelief& relief, const RoadRelief& evaluated, const cv::Mat& disparity_px,
-                      const StereoGeometry& geometry, const RoadSurface& surface, const RoadModelOptions& options,
+                      const RectifiedStereo& geometry, const RoadSurface& surface, const RoadModelOptions& options,
                       const cv::Mat& exclude);
 
 }  // namespace rs

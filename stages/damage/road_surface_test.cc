@@ -1,7 +1,8 @@
 #include "stages/damage/road_surface.h"
+#include "sim/synthetic_damage_scene.h"
 
 #include "stages/damage/damage_pipeline.h"
-#include "stages/damage/order_statistic.h"
+#include "survey/stats/order_statistic.h"
 
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
@@ -114,7 +115,7 @@ TEST(RoadSurface, KthSmallestEqualsNthElement) {
 // without disparity) at an awkward size.
 TEST(RoadSurface, EvaluateMatchesPixelReference) {
   const SyntheticRoadScene scene = BenchmarkRoadScene(631, 357);
-  const StereoGeometry& g = scene.geometry;
+  const RectifiedStereo& g = scene.geometry;
   const cv::Mat d = scene.Render();
   const RoadModelOptions o;
   const RoadSurface s = FitRoadSurface(d, g, o);
@@ -164,7 +165,7 @@ TEST(RoadSurface, EvaluateMatchesPixelReference) {
 TEST(RoadSurface, LocalCorrectionFollowsARiseOffTheQuadratic) {
   SyntheticRoadScene scene;
   scene.more_potholes.push_back({1.1, 0.0, 0.1, 0.04});
-  const StereoGeometry& g = scene.geometry;
+  const RectifiedStereo& g = scene.geometry;
   const cv::Mat flat = scene.Render();
   const double th = scene.pitch_deg * CV_PI / 180, H = scene.height_m, fb = g.f_px * g.baseline_m;
   const Eigen::Vector3d up(0, -std::cos(th), -std::sin(th));
@@ -205,7 +206,7 @@ TEST(RoadSurface, LocalCorrectionFollowsARiseOffTheQuadratic) {
 // the car, must not pull the fitted surface up over the hidden lane (it did: 40-110 mm "below the
 // road" beside the car in the simulator's obstacles preset). Intact road within 5 mm everywhere.
 TEST(RoadSurface, PavementBeyondParkedCarIsNotRoad) {
-  const StereoGeometry g{500, 400, 180, 0.2};
+  const RectifiedStereo g{500, 400, 180, 0.2};
   constexpr double kH = 4.0, kCrownX = 1.0, kKerbX = -2.5;
   const auto road_height = [&](double x) { return -0.025 * std::abs(std::min(x, kCrownX) - kCrownX); };
   const auto height = [&](double x) {
@@ -239,7 +240,7 @@ TEST(RoadSurface, TooFewPoints) {
   SyntheticRoadScene scene;
   EXPECT_THROW(FitRoadSurface(cv::Mat::zeros(100, 100, CV_32F), scene.geometry, RoadModelOptions()),
                std::invalid_argument);
-  EXPECT_THROW(FitRoadSurface(cv::Mat::ones(100, 100, CV_32F), StereoGeometry{}, RoadModelOptions()),
+  EXPECT_THROW(FitRoadSurface(cv::Mat::ones(100, 100, CV_32F), RectifiedStereo{}, RoadModelOptions()),
                std::invalid_argument);
   RoadModelOptions bad;
   bad.obstacle_height_m = 0.01;  // below the inlier band

@@ -1,7 +1,7 @@
 #include "stages/damage/scale_noise.h"
 
-#include "stages/damage/order_statistic.h"
-#include "stages/damage/robust_stats.h"
+#include "survey/stats/order_statistic.h"
+#include "survey/stats/robust_stats.h"
 
 #include <opencv2/imgproc.hpp>
 

@@ -19,8 +19,8 @@ namespace {
 constexpr int kSize = 480;
 constexpr double kCentre = 240, kRadiusPx = 60;
 
-StereoGeometry Geometry() {
-  StereoGeometry g;
+RectifiedStereo Geometry() {
+  RectifiedStereo g;
   g.f_px = 1000, g.cx_px = kCentre, g.cy_px = kCentre, g.baseline_m = 0.3;
   return g;
 }

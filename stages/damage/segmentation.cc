@@ -10,7 +10,7 @@
 #include <stdexcept>
 #include <vector>
 
-#include "stages/damage/order_statistic.h"
+#include "survey/stats/order_statistic.h"
 #include "stages/damage/rect_merge.h"
 
 namespace rs {

@@ -1,10 +1,11 @@
 #include "stages/damage/segmentation.h"
+#include "sim/synthetic_damage_scene.h"
 #include "stages/damage/damage_pipeline.h"
 #include "stages/damage/image_edges.h"
 #include "stages/damage/relief_noise.h"
 #include "tests/support/test_data.h"
 
-#include "stages/damage/damage_eval.h"
+#include "eval/damage/damage_eval.h"
 
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>

@@ -9,7 +9,7 @@
 namespace rs {
 
 cv::Mat SharpDepthBelowMm(const cv::Mat& sharp, const cv::Mat& disparity_px, const cv::Mat& labels,
-                          const StereoGeometry& g, const RoadSurface& s, const cv::Mat& correction_mm) {
+                          const RectifiedStereo& g, const RoadSurface& s, const cv::Mat& correction_mm) {
   if (sharp.type() != CV_32FC1 || disparity_px.type() != CV_32FC1 || sharp.size() != disparity_px.size())
     throw std::invalid_argument("sharp disparity: CV_32F of the disparity's size expected");
   if (labels.type() != CV_16UC1 || labels.size() != sharp.size() ||

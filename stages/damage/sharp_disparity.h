@@ -21,6 +21,6 @@ namespace rs {
 /// RoadRelief::depth_below_mm is before the relief's smoothing. Only the labels' bounding boxes
 /// are evaluated. Throws std::invalid_argument when the images differ in size or type.
 cv::Mat SharpDepthBelowMm(const cv::Mat& sharp_disparity_px, const cv::Mat& disparity_px, const cv::Mat& labels,
-                          const StereoGeometry& geometry, const RoadSurface& surface, const cv::Mat& correction_mm);
+                          const RectifiedStereo& geometry, const RoadSurface& surface, const cv::Mat& correction_mm);
 
 }  // namespace rs

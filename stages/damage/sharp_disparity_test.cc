@@ -1,4 +1,5 @@
 #include "stages/damage/sharp_disparity.h"
+#include "sim/synthetic_damage_scene.h"
 
 #include "stages/damage/damage_pipeline.h"
 

@@ -2,7 +2,7 @@
 
 #include "stages/damage/measure.h"
 #include "stages/damage/relief_noise.h"
-#include "stages/damage/robust_stats.h"
+#include "survey/stats/robust_stats.h"
 
 #include <algorithm>
 #include <stdexcept>

@@ -1,8 +1,8 @@
 // The disparity stage's second image (DisparityResult::disparity_sharp): the small refinement
 // window's value alone, before the 21x21 smooth window is taken.
 #include "stages/disparity/disparity.h"
-#include "stages/disparity/disparity_eval.h"
-#include "stages/disparity/disparity_io.h"
+#include "sim/synthetic_road_pair.h"
+#include "formats/disparity/disparity_io.h"
 
 #include <cmath>
 #include <cstdio>

@@ -7,7 +7,7 @@
 
 #include "formats/stereo/calibration_yaml.h"
 #include "formats/stereo/image_io.h"
-#include "stages/disparity/disparity_io.h"
+#include "formats/disparity/disparity_io.h"
 #include "survey/atomic_file.h"
 
 namespace rs {
@@ -228,21 +228,21 @@ void DisparityStage::Run(StageContext& ctx, const DisparityStageOptions& o) cons
         DisparityParams params = o.params;
         params.camera_focal_px = calib.left.fx;
         const DisparityResult r = ComputeDisparity(left, right, params, prior ? &*prior : nullptr);
-        WriteKittiDisparityPng((tmp / "disparity.png").string(), r.disparity, r.valid);
-        cv::imwrite((tmp / "valid.png").string(), r.valid);
+        WriteKittiDisparityPng((tmp / disparity_files::kDisparity).string(), r.disparity, r.valid);
+        WriteImageChecked((tmp / disparity_files::kValid).string(), r.valid);
         if (o.write_sharp && !r.disparity_sharp.empty())
-          WriteKittiDisparityPng((tmp / "disparity_sharp.png").string(), r.disparity_sharp, r.valid);
+          WriteKittiDisparityPng((tmp / disparity_files::kSharp).string(), r.disparity_sharp, r.valid);
         if (o.write_transformed && !r.transformed.empty())
-          cv::imwrite((tmp / "transformed.tiff").string(), r.transformed);
+          WriteImageChecked((tmp / disparity_files::kTransformed).string(), r.transformed);
         if (o.write_preview) {
           double d_max = 0;
           cv::minMaxLoc(r.disparity, nullptr, &d_max, nullptr, nullptr, r.valid);
-          cv::imwrite((tmp / "preview.png").string(), ColorizeDisparity(r.disparity, r.valid, 0, d_max));
+          WriteImageChecked((tmp / disparity_files::kPreview).string(), ColorizeDisparity(r.disparity, r.valid, 0, d_max));
         }
         if (o.write_point_cloud)
-          WriteDisparityPointCloud((tmp / "cloud.ply").string(), r.disparity, r.valid, left, calib.left.fx,
-                                   calib.left.cx, calib.left.cy, calib.BaselineM());
-        WriteJsonAtomic(tmp / "road_model.json", RoadModelJson(r.road, r, o.params.gpt_delta_px));
+          WriteDisparityPointCloud((tmp / disparity_files::kPointCloud).string(), r.disparity, r.valid, left,
+                                   RectifiedStereoOf(calib));
+        WriteJsonAtomic(tmp / disparity_files::kRoadModel, RoadModelJson(r.road, r, o.params.gpt_delta_px));
         FrameOutcome out;
         out.counts = {{"fell_back", r.fell_back ? 1 : 0},
                       {"valid_fraction_sum", r.valid_fraction},
@@ -254,30 +254,6 @@ void DisparityStage::Run(StageContext& ctx, const DisparityStageOptions& o) cons
         return out;
       },
       o.skip_bad_frames);
-}
-
-void WriteDisparityPointCloud(const std::string& path, const cv::Mat& disparity, const cv::Mat& valid,
-                              const cv::Mat& gray, double f_px, double cx_px, double cy_px, double baseline_m) {
-  struct Point {
-    float x, y, z;
-    uint8_t g;
-  } __attribute__((packed));
-  std::vector<Point> points;
-  for (int v = 0; v < disparity.rows; ++v) {
-    for (int u = 0; u < disparity.cols; ++u) {
-      const float d = disparity.at<float>(v, u);
-      if (!valid.at<uint8_t>(v, u) || d <= 0) continue;
-      const double z = f_px * baseline_m / d;
-      points.push_back({static_cast<float>((u - cx_px) * z / f_px), static_cast<float>((v - cy_px) * z / f_px),
-                        static_cast<float>(z), gray.at<uint8_t>(v, u)});
-    }
-  }
-  std::ofstream out(path, std::ios::binary);
-  out << "ply\nformat binary_little_endian 1.0\ncomment roadsurvey disparity point cloud, left camera frame, metres\n"
-      << "element vertex " << points.size() << "\nproperty float x\nproperty float y\nproperty float z\n"
-      << "property uchar intensity\nend_header\n";
-  out.write(reinterpret_cast<const char*>(points.data()), static_cast<std::streamsize>(points.size() * sizeof(Point)));
-  if (!out) throw std::runtime_error("cannot write point cloud " + path);
 }
 
 }  // namespace rs

@@ -30,9 +30,4 @@ class DisparityStage : public TypedStage<DisparityStage, DisparityStageOptions> 
   void Run(StageContext& ctx, const DisparityStageOptions& options) const;
 };
 
-/// Binary little-endian PLY of the valid pixels' 3-D points in the left camera
-/// frame (x right, y down, z forward, metres) with their grey value.
-void WriteDisparityPointCloud(const std::string& path, const cv::Mat& disparity, const cv::Mat& valid,
-                              const cv::Mat& gray, double f_px, double cx_px, double cy_px, double baseline_m);
-
 }  // namespace rs

@@ -1,5 +1,5 @@
 #include "stages/disparity/disparity.h"
-#include "stages/disparity/sim_disparity_eval.h"
+#include "eval/disparity/sim_disparity_eval.h"
 #include "tests/support/test_data.h"
 
 #include <algorithm>
@@ -14,8 +14,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "stages/disparity/disparity_eval.h"
-#include "stages/disparity/disparity_io.h"
+#include "eval/disparity/disparity_eval.h"
+#include "formats/disparity/disparity_io.h"
 
 namespace rs {
 namespace {

@@ -6,7 +6,7 @@
 
 #include <gtest/gtest.h>
 
-#include "stages/disparity/disparity_eval.h"
+#include "sim/synthetic_road_pair.h"
 
 namespace rs {
 namespace {

@@ -1,5 +1,7 @@
 #include "stages/ingest/time_alignment.h"
 
+#include "survey/stats/order_statistic.h"
+
 #include <Eigen/Geometry>
 #include <fmt/format.h>
 
@@ -12,11 +14,7 @@ namespace {
 constexpr int kMaxMessagesPerKind = 5;
 constexpr double kEarthRadiusM = 6371008.8;
 
-int64_t Median(std::vector<int64_t> v) {
-  const size_t mid = v.size() / 2;
-  std::nth_element(v.begin(), v.begin() + mid, v.end());
-  return v[mid];
-}
+int64_t Median(std::vector<int64_t> v) { return LowerMedianInPlace(v); }
 
 double HaversineM(double lat1, double lon1, double lat2, double lon2) {
   const double d2r = M_PI / 180.0;

@@ -1,5 +1,8 @@
 #include "stages/slam/disparity_calibration.h"
 
+#include "survey/stats/order_statistic.h"
+#include "survey/stats/robust_stats.h"
+
 #include <algorithm>
 #include <cmath>
 #include <map>
@@ -9,11 +12,7 @@
 namespace rs {
 namespace {
 
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-  return v[v.size() / 2];
-}
+double Median(std::vector<double> v) { return v.empty() ? 0 : LowerMedianInPlace(v); }
 
 }  // namespace
 
@@ -68,7 +67,7 @@ DisparityOffsetEstimate EstimateDisparityOffset(const std::vector<DisparityPairS
       rw.push_back(std::abs(r[k]) / std::sqrt(var[k]));
     }
     if (rw.size() < static_cast<size_t>(min_samples)) return out;
-    sigma = std::max(1e-6, 1.4826 * Median(rw));
+    sigma = std::max(1e-6, SigmaOfMedianAbs(Median(rw)));
     // Huber weights (k = 1.345 sigma), samples beyond 5 sigma dropped (wrong matches).
     int kept = 0;
     for (size_t k = 0; k < n; ++k) {

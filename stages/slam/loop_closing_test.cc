@@ -20,11 +20,11 @@
 #include "formats/stereo/image_io.h"
 #include "formats/stereo/stereo_source.h"
 #include "formats/trajectory/trajectory_file.h"
-#include "stages/simulate/simulate.h"
+#include "sim/simulate.h"
 #include "stages/slam/loop_verification.h"
-#include "stages/slam/slam_datasets.h"
+#include "eval/trajectory/slam_datasets.h"
 #include "stages/slam/stereo_slam.h"
-#include "stages/slam/trajectory_metrics.h"
+#include "eval/trajectory/trajectory_metrics.h"
 #include "tests/support/temp_dirs.h"
 
 namespace rs {

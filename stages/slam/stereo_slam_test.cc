@@ -8,7 +8,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "stages/slam/slam_datasets.h"
+#include "eval/trajectory/slam_datasets.h"
 #include "survey/options.h"
 
 namespace rs {

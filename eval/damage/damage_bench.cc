@@ -1,0 +1,61 @@
+#include "eval/damage/damage_bench.h"
+
+#include <algorithm>
+#include <chrono>
+#include <ctime>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "sim/synthetic_damage_scene.h"
+#include "stages/damage/damage_output.h"
+#include "stages/damage/damage_pipeline.h"
+
+namespace rs {
+namespace {
+
+double MsSince(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+}  // namespace
+
+DamageBench BenchDetectDamage(int width, int height, int repeats) {
+  const SyntheticRoadScene scene = BenchmarkRoadScene(width, height);
+  const cv::Mat disparity = scene.Render(), image = scene.RenderImage();
+  const DamageOptions options;
+  std::vector<double> wall, cpu, steps[6];
+  DamageBench b;
+  for (int i = 0; i < std::max(1, repeats); ++i) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const std::clock_t c0 = std::clock();
+    const FrameDamage f = DetectDamage(disparity, image, scene.geometry, options);
+    const auto t1 = std::chrono::steady_clock::now();
+    const cv::Mat overlay = RenderOverlay(image, f.labels, f.instances);
+    const std::string json = DetectionsToJson(f.instances).dump(2);
+    cpu.push_back(1000.0 * double(std::clock() - c0) / CLOCKS_PER_SEC);
+    wall.push_back(MsSince(t0));
+    steps[0].push_back(f.ms_road), steps[1].push_back(f.ms_segment), steps[2].push_back(f.ms_measure);
+    steps[3].push_back(f.ms_cracks), steps[4].push_back(MsSince(t1));
+    const auto t2 = std::chrono::steady_clock::now();
+    std::vector<uchar> png;
+    cv::imencode(".png", f.labels, png);
+    cv::imencode(".png", overlay, png);
+    steps[5].push_back(MsSince(t2));
+    b.potholes = b.cracks = b.others = 0;
+    for (const DamageInstance& d : f.instances)
+      (d.type == DamageType::kPothole ? b.potholes : d.type == DamageType::kCrack ? b.cracks : b.others)++;
+  }
+  auto median = [](std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    return v[v.size() / 2];
+  };
+  b.wall_ms = median(wall), b.cpu_ms = median(cpu);
+  b.road_ms = median(steps[0]), b.segment_ms = median(steps[1]), b.measure_ms = median(steps[2]);
+  b.cracks_ms = median(steps[3]), b.outputs_ms = median(steps[4]), b.encode_ms = median(steps[5]);
+  return b;
+}
+
+}  // namespace rs
