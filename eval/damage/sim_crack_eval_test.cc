@@ -1,4 +1,4 @@
-// Issue 6 item 2 on the simulator: crack pixels (tolerance band), crack instances, length of
+// Crack accuracy on the simulator: crack pixels (tolerance band), crack instances, length of
 // the visible part and width against the truth. The full preset figures come from
 // SimCrackEval.Benchmark (set ROADSURVEY_SIM_CRACK_EVAL_DIR to a `roadsurvey simulate` folder).
 #include "eval/damage/sim_crack_eval.h"

@@ -350,7 +350,7 @@ SimDamageEvaluation EvaluateSimulatedDamage(const fs::path& dir, const SimDamage
         visible_depth_mm.push_back(1000.0 * (d.max_depth_seen_m - ob.truth_visible_depth_m));
         ob.truth_floor_hidden = td.max_depth_m - ob.truth_visible_depth_m > 0.010;
         r.occluded += ob.truth_floor_hidden;
-        // The stage's line-of-sight verdict: where it says seen, the Done-when errors apply;
+        // The stage's line-of-sight verdict: where it says seen, the accuracy bounds apply;
         // where it says hidden, the truth must lie within the interval it states, and its
         // estimate is scored apart.
         ob.floor_visible = d.floor_visible;

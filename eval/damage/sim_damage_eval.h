@@ -102,7 +102,7 @@ struct SimDamageEvaluation {
   DamageErrorStats visible_volume_error_pct;  ///< (seen − visible truth volume) / visible truth volume, %
   int occluded = 0;  ///< matched observations whose visible depth is > 10 mm less than the true depth
   int unconfirmable = 0;  ///< truth potholes in range left unscored: shallower than the σ_Z rule allows
-  /// The Done-when errors against the true values, scored only where the stage says it saw
+  /// The accuracy errors against the true values, scored only where the stage says it saw
   /// the whole: max depth where floor_visible, volume where no volume_upper_m3 is stated.
   DamageErrorStats seen_depth_error_mm, seen_volume_error_pct;
   /// Where the stage says the floor is hidden: matches, and how many hold the true max depth

@@ -1,4 +1,4 @@
-// Issue 6 "Done when" on the simulator: pothole recall/precision, depth/area/volume
+// The damage stage's accuracy targets on the simulator: pothole recall/precision, depth/area/volume
 // errors, severity agreement and obstacle rejection, on a reduced render (640×360,
 // focal halved) so the test stays fast. The full 1280×720 preset figures come from
 // SimDamageEval.Benchmark (set ROADSURVEY_SIM_EVAL_DIR to a `roadsurvey simulate` folder).
@@ -46,7 +46,7 @@ fs::path RenderSmall(const std::string& preset, int frames, double frame_rate_hz
   return dir;
 }
 
-// Issue 6 "Done when" bounds for the scored potholes (≥ 0.3 m across, fully in the frame).
+// The accuracy bounds for the scored potholes (≥ 0.3 m across, fully in the frame).
 // "Each figure within the stated uncertainty": the errors against 2 σ of the stage's own
 // σ_Z, σ_area and σ_volume (measurement_sigma.h). 2 σ holds ~95 % of a normal error: 0.85
 // lets one of the ~7 observations of a 20-frame render out (pooled over the 8 shared renders,
@@ -59,7 +59,7 @@ void ExpectWithinStatedUncertainty(const SimDamageEvaluation& r) {
   }
 }
 
-void ExpectDoneWhen(const SimDamageEvaluation& r) {
+void ExpectAccuracyTargets(const SimDamageEvaluation& r) {
   ASSERT_GE(r.observations.size(), 5u) << "too few scored potholes for a meaningful test";
   EXPECT_GE(r.recall, 0.95);
   EXPECT_GE(r.precision, 0.95);
@@ -92,23 +92,23 @@ TEST(SimDamageEval, DroneLowTruthDisparity) {
   EXPECT_LE(r.road_median_abs_mm, 2.0);  // crowned road followed by the local correction
 }
 
-// The Done-when bounds on the damage stage alone (truth disparity), full resolution (1280×720,
+// The accuracy bounds on the damage stage alone (truth disparity), full resolution (1280×720,
 // 20 frames at 3 Hz, ~6 s CPU each). drone-low: measured (7 observations of 4 potholes)
 // recall 1.0, precision 1.0, |depth error| ≤ 4.5 mm, |area error| ≤ 10.0 %, |volume error|
 // ≤ 1.8 %, severity 100 %.
-TEST(SimDamageEval, DoneWhenTruthDisparityDroneLow) {
+TEST(SimDamageEval, TargetsTruthDisparityDroneLow) {
   SimDamageEvalOptions o;
   o.use_truth_disparity = true;
   const SimDamageEvaluation r = EvaluateSimulatedDamage(RenderSmall("drone-low", 20, 3, true), o);
   std::cout << r.Report() << "\n";
-  ExpectDoneWhen(r);
+  ExpectAccuracyTargets(r);
   EXPECT_EQ(r.hidden_flag_detections, 0);  // a nadir view hides no floor (floor_visibility.h)
 }
 // obstacles (denser potholes than the preset: 14 observations of 7): parked cars and a person
 // must not become damage nor bend the road. Measured when written: recall 0.857 (2 misses),
 // precision 1.0, |depth error| ≤ 7.7 mm, |area error| ≤ 11.2 %, |volume error| ≤ 1.3 %, severity
-// 100 %, no obstacle detection, road model 0.17 mm; a regression guard at that level. Since the
-// scoring rules and the road regions (session 5, docs/stages/damage.md): recall 1.0, area ≤ 8.1 %.
+// 100 %, no obstacle detection, road model 0.17 mm; a regression guard at that level. With the
+// scoring rules and the road regions (docs/stages/damage.md): recall 1.0, area ≤ 8.1 %.
 TEST(SimDamageEval, ObstaclesTruthDisparity) {
   SimDamageEvalOptions o;
   o.use_truth_disparity = true;
@@ -132,7 +132,7 @@ TEST(SimDamageEval, ObstaclesTruthDisparity) {
 // a few percentage points (the road fit sees other pixels); none found only without the
 // obstacles. Measured (seed 1, 10 pairs): worst area +1.7 pp, volume +0.4 pp, depth +0.3 mm, road
 // model -0.03 mm. Over seeds 1-3 (docs/stages/damage.md "Obstacles: the same flight without
-// them") the obstacle-free flights miss the Done-when bounds at this 6 m altitude as often.
+// them") the obstacle-free flights miss the accuracy bounds at this 6 m altitude as often.
 TEST(SimDamageEval, ObstaclesLeaveTheErrorsUnchanged) {
   const SimDamageEvalOptions o;
   const SimDamageEvaluation with = EvaluateSimulatedDamage(RenderSmall("obstacles", 20, 3, true), o);
@@ -150,15 +150,14 @@ TEST(SimDamageEval, ObstaclesLeaveTheErrorsUnchanged) {
 }
 
 // car (oblique, camera 1.5 m high, pitched 15°; 20 frames at 3 Hz, 60 potholes/100 m: 22
-// observations of 16 potholes at 2.8-7.4 m, ~8 s CPU): the Done-when bounds that hold are
+// observations of 16 potholes at 2.8-7.4 m, ~8 s CPU): the accuracy bounds that hold are
 // asserted, the others guarded at the measured level. Measured: recall 0.955 (21/22), precision
 // 0.955 (one fragment of the 0.07 m² pothole beside the kerb it misses), severity 100 %, no
 // obstacle, road model 0.09 mm, area |error| ≤ 11.5 % (bound 10 %). Against what the frame
 // shows (the simulator's surface seen through the truth disparity): depth ≤ 5.5 mm, volume
 // ≤ 9.9 %; the seen values against the true max depth and volume ≤ 53 mm and ≤ 69 % (bounds
 // 10 mm, 15 %): at 5-7 m the near rim hides the floor of deep potholes (grazing angle 12-17°),
-// which no single frame measures; the estimates complete it (below; docs/stages/damage.md). Before (image-square smoothing and superpixels, the
-// evaluator as then): recall 0.741, precision 0.870, area ≤ 68 %.
+// which no single frame measures; the estimates complete it (below; docs/stages/damage.md).
 TEST(SimDamageEval, CarTruthDisparity) {
   SimDamageEvalOptions o;
   o.use_truth_disparity = true;
@@ -168,16 +167,16 @@ TEST(SimDamageEval, CarTruthDisparity) {
   EXPECT_GE(r.recall, 0.95);
   EXPECT_GE(r.precision, 0.95);
   EXPECT_LE(r.visible_depth_error_mm.max_abs, 10.0);
-  // One pothole misses the area and volume bounds since the renderer draws paint by pixel coverage
-  // (session 7): frame 10 id 29, 0.073 m² (0.30 m across) at 6.5 m under the left edge line beside
-  // the verge, which the old aliased paint made a false detection (IoU 0); now matched at IoU 0.53,
+  // One pothole misses the area and volume bounds since the renderer draws paint by pixel coverage:
+  // frame 10 id 29, 0.073 m² (0.30 m across) at 6.5 m under the left edge line beside
+  // the verge, matched at IoU 0.53,
   // area -47 %, seen volume -42 %: the paint-edge noise class (segment.edge_margin_px) holds its
   // seed and growth back (0 gives -11 % here but worse figures with our disparity on drone-low
   // and obstacles; docs/stages/damage.md "Known gaps"). The rest asserted through the p95.
   EXPECT_LE(r.visible_volume_error_pct.p95_abs, 15.0);  // measured 8.6 %
   EXPECT_LE(r.visible_volume_error_pct.max_abs, 45.0);  // guard: 41.8 % (id 29)
   // Line of sight (floor_visibility.h): where the stage says it saw the whole (floor_visible;
-  // no volume_upper_m3), the Done-when bounds against the true values; where it says the near
+  // no volume_upper_m3), the accuracy bounds against the true values; where it says the near
   // rim may hide part, the truth within the interval it states, every time; and the flag
   // honest against the truth (floor hidden > 10 mm). Measured: floor seen 13 matches, |depth
   // error| <= 6.1 mm; hidden 8, all within [max_depth_m - 2 sigma_Z, max_depth_bound_m] (bound
@@ -235,14 +234,14 @@ TEST(SimDamageEval, CarTruthDisparitySeed2) {
   ExpectWithinStatedUncertainty(r);
 }
 
-// The Done-when bounds on the full pipeline (our GPT-SGM disparity, then the damage stage),
+// The accuracy bounds on the full pipeline (our GPT-SGM disparity, then the damage stage),
 // drone-low at full resolution. Measured: recall 1.0, precision 1.0, |depth error| <= 5.1 mm,
 // |area error| <= 8.4 %, |volume error| <= 9.3 %, severity 100 %. (obstacles and car with our
 // disparity do not meet the bounds yet: docs/stages/damage.md.)
-TEST(SimDamageEval, DoneWhenComputedDisparityDroneLow) {
+TEST(SimDamageEval, TargetsComputedDisparityDroneLow) {
   const SimDamageEvaluation r = EvaluateSimulatedDamage(RenderSmall("drone-low", 20, 3, true), SimDamageEvalOptions());
   std::cout << r.Report() << "\n";
-  ExpectDoneWhen(r);
+  ExpectAccuracyTargets(r);
 }
 
 TEST(SimDamageEval, DamageErrorStats) {

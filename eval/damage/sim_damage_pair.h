@@ -1,5 +1,5 @@
 #pragma once
-// Issue 6's obstacles item, "road model unaffected (same errors)", as a paired comparison: the
+// Obstacles leave the damage errors and the road model unchanged, as a paired comparison: the
 // same simulated flight (seed, road, damage, trajectory) rendered with and without its parked
 // cars and people, evaluated alike. Each pothole observation scored in both renders (same frame,
 // same truth pothole) gives the difference its errors take from the obstacles; observations an

@@ -1,7 +1,7 @@
 #pragma once
 // Disparity truth regions of a `roadsurvey simulate` folder (docs/simulator.md): the frames as
 // StereoPairWithTruth with a road mask and a pothole mask, so the benchmark scores ours and
-// StereoSGBM on exactly the pixels the "Done when" names. Protocol: docs/stages/disparity.md
+// StereoSGBM on exactly the pixels the accuracy targets name. Protocol: docs/stages/disparity.md
 // ("Simulated road surveys").
 //
 // Regions (left view, all need a truth disparity):

@@ -1,4 +1,4 @@
-// Issue 5 "Done when" on simulated road surveys, on a few frames rendered at test time
+// The disparity accuracy targets on simulated road surveys, on a few frames rendered at test time
 // (full 1280x720, so the figures are the target configuration's): road D1 <= 1 % and at most
 // half of StereoSGBM's, pothole MAE <= 0.25 px; and the truth regions themselves.
 // The whole-preset figures come from `disparity_bench --sim DIR` (docs/stages/disparity.md).
@@ -72,7 +72,7 @@ Scores Score(const std::vector<StereoPairWithTruth>& pairs) {
   return s;
 }
 
-void ExpectDoneWhen(const Scores& s, int64_t min_pothole_pixels) {
+void ExpectAccuracyTargets(const Scores& s, int64_t min_pothole_pixels) {
   ASSERT_GT(s.road.evaluated, 100000);
   ASSERT_GE(s.pothole.evaluated, min_pothole_pixels) << "too few pothole pixels for a meaningful test";
   EXPECT_LE(s.road.d1, 0.01);
@@ -125,9 +125,9 @@ TEST(SimDisparityEval, VisibilityFromLeftTruth) {
   }
 }
 
-TEST(SimDisparityEval, DroneLowDoneWhen) {
+TEST(SimDisparityEval, DroneLowTargets) {
   const Scores s = Score(LoadSimulatedSurvey(Render("drone-low", 2, 1.0)));
-  ExpectDoneWhen(s, 2000);
+  ExpectAccuracyTargets(s, 2000);
   // Sub-pixel accuracy the damage stage needs (0.25 px is ~2 cm of depth at 4 m): with the
   // intensity refinement 0.65 % of the road is off by more than 0.25 px and the EPE is 0.049 px;
   // SGM's equiangular sub-pixel alone gave ~8 % and 0.13 px (pixel locking where the planar road
@@ -137,12 +137,12 @@ TEST(SimDisparityEval, DroneLowDoneWhen) {
   EXPECT_NEAR(s.errors.RoadSignedMean(), 0.0, 0.02);
 }
 
-TEST(SimDisparityEval, CarDoneWhen) {
-  ExpectDoneWhen(Score(LoadSimulatedSurvey(Render("car", 2, 1.0))), 500);
+TEST(SimDisparityEval, CarTargets) {
+  ExpectAccuracyTargets(Score(LoadSimulatedSurvey(Render("car", 2, 1.0))), 500);
 }
 
-TEST(SimDisparityEval, ObstaclesDoneWhen) {
-  ExpectDoneWhen(Score(LoadSimulatedSurvey(Render("obstacles", 2, 1.0))), 2000);
+TEST(SimDisparityEval, ObstaclesTargets) {
+  ExpectAccuracyTargets(Score(LoadSimulatedSurvey(Render("obstacles", 2, 1.0))), 2000);
 }
 
 // The signed error distribution's arithmetic on a pair with known errors.

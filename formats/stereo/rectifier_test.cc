@@ -41,7 +41,7 @@ double Quantile(std::vector<double> v, double q) {
   return v[k];
 }
 
-// Done-when check of issue 4: rectified EuRoC pairs are row-aligned.
+// Rectified EuRoC pairs are row-aligned.
 TEST(StereoRectifier, EurocEpipolar) {
   const fs::path mav0 = DataRoot() / kEurocMav0;
   RS_REQUIRE_DATA(mav0);

@@ -119,7 +119,7 @@ DamageInstance Check(const Case& c, bool expect_visible) {
 
 // The estimate against the exact cap: volume within `volume_tol` (relative), max depth within
 // `depth_tol_m`, where what the frame sees (the old volume_m3 / max_depth_m) misses the same
-// tolerance (the test of the completion, not of the measurement). Measured (session 8): 80 mm
+// tolerance (the test of the completion, not of the measurement). Measured: 80 mm
 // cap 81.9 mm, −4.5 % (seen 59 mm, −43 %); 120 mm cap 122.3 mm, −5.9 % (seen 77 mm, −54 %;
 // −14.2 % while the near wall was held to the 45° bound's slope, hence its 10 % here); wedge
 // case −3.3 % (seen −8.8 %, area +0.7 %).
@@ -245,7 +245,7 @@ DamageInstance DetectPan(const Pan& pan, double* visible_depth_m) {
 // Pans whose grazing rays meet the far wall where it levels out onto the floor (the floor
 // shows over a row or two, so the stage says hidden): the far wall's slope declines towards the
 // grazing point, and the floor lies where that decline reaches zero. The circle through rims and
-// grazing point alone went on down (80 mm pan: 98.4 mm, 100 mm pan: 151.8 mm, session 7).
+// grazing point alone goes on down (80 mm pan: 98.4 mm, 100 mm pan: 151.8 mm).
 void ExpectPanEstimate(const Pan& pan) {
   double visible_m = 0;
   const DamageInstance d = DetectPan(pan, &visible_m);
@@ -297,8 +297,8 @@ DamageInstance DetectSmoothed(const Case& c, int rows) {
 
 // The deep caps above with the disparity smoothed over 9 rows along the columns: the deepest
 // seen part then begins ~3 rows behind the rim and reaches 9-11 rows from it, as far as a seen
-// floor's; measured from the rim (the flag before session 7) both read "seen" from 9 rows on,
-// and the grazing depth taken within two rows of the rim (the road mixed in) left the 120 mm
+// floor's; measured from the rim, both would read "seen" from 9 rows on,
+// and the grazing depth taken within two rows of the rim (the road mixed in) would leave the 120 mm
 // cap's bound at 101 mm. The flag, the lower bound and both upper bounds must still hold.
 TEST(FloorVisibility, SmoothedDisparityHiddenFloor) {
   for (const Case& c : {Case{1.5, 15, 0.08, 0.15, 6.0}, Case{1.5, 15, 0.12, 0.15, 5.0}}) {

@@ -1,6 +1,6 @@
 #pragma once
-// Stated uncertainty of a depression's area and volume (issue 6: "each figure within the stated
-// uncertainty"; σ_Z covers the depth). The outline lies where the relief crosses the rim
+// Stated uncertainty of a depression's area and volume (every figure comes with the uncertainty
+// it is within; σ_Z covers the depth). The outline lies where the relief crosses the rim
 // threshold: its position is uncertain by the matcher's spread of the wall (a toe beside it, a
 // shallower floor beside it: docs/stages/disparity.md "Pothole walls") and, where the depression
 // is shallow against the stereo noise, by where that noise makes the wall cross the threshold.
