@@ -3,7 +3,7 @@
 // (ours or the simulator's truth) -> DetectDamage, crack-typed detections compared with the
 // truth crack masks (pixel precision/recall within a tolerance band), with each truth crack's
 // centreline (truth/damages.geojson) projected into the frame (instance recall, length of the
-// visible part, width). Protocol and figures: docs/stages/damage.md ("Crack evaluation").
+// visible part, width). Protocol and figures: docs/results/damage.md ("Crack evaluation").
 
 #include "stages/damage/damage_pipeline.h"
 #include "eval/damage/sim_damage_eval.h"

@@ -3,7 +3,7 @@
 // disparity (ours or the simulator's truth) -> DetectDamage, detected potholes
 // matched to the truth instance masks at IoU >= 0.5, measurements compared with
 // truth/damages.geojson, severity with the truth grade, obstacles checked.
-// Protocol and measured figures: docs/stages/damage.md ("Simulator evaluation").
+// Protocol and measured figures: docs/results/damage.md ("Simulator evaluation").
 
 #include "stages/damage/damage_pipeline.h"
 #include "stages/disparity/disparity.h"

@@ -131,7 +131,7 @@ TEST(SimDamageEval, ObstaclesTruthDisparity) {
 // the computed disparity. Pothole observations scored in both renders take the same errors, to
 // a few percentage points (the road fit sees other pixels); none found only without the
 // obstacles. Measured (seed 1, 10 pairs): worst area +1.7 pp, volume +0.4 pp, depth +0.3 mm, road
-// model -0.03 mm. Over seeds 1-3 (docs/stages/damage.md "Obstacles: the same flight without
+// model -0.03 mm. Over seeds 1-3 (docs/results/damage.md "Obstacles: the same flight without
 // them") the obstacle-free flights miss the accuracy bounds at this 6 m altitude as often.
 TEST(SimDamageEval, ObstaclesLeaveTheErrorsUnchanged) {
   const SimDamageEvalOptions o;
@@ -172,7 +172,7 @@ TEST(SimDamageEval, CarTruthDisparity) {
   // the verge, matched at IoU 0.53,
   // area -47 %, seen volume -42 %: the paint-edge noise class (segment.edge_margin_px) holds its
   // seed and growth back (0 gives -11 % here but worse figures with our disparity on drone-low
-  // and obstacles; docs/stages/damage.md "Known gaps"). The rest asserted through the p95.
+  // and obstacles; docs/stages/damage.md "Known limits"). The rest asserted through the p95.
   EXPECT_LE(r.visible_volume_error_pct.p95_abs, 15.0);  // measured 8.6 %
   EXPECT_LE(r.visible_volume_error_pct.max_abs, 45.0);  // guard: 41.8 % (id 29)
   // Line of sight (floor_visibility.h): where the stage says it saw the whole (floor_visible;

@@ -1,8 +1,8 @@
 #pragma once
 // Disparity truth regions of a `roadsurvey simulate` folder (docs/simulator.md): the frames as
 // StereoPairWithTruth with a road mask and a pothole mask, so the benchmark scores ours and
-// StereoSGBM on exactly the pixels the accuracy targets name. Protocol: docs/stages/disparity.md
-// ("Simulated road surveys").
+// StereoSGBM on exactly the pixels the accuracy targets name. Protocol: docs/results/disparity.md
+// ("Simulated surveys: GPT-SGM against StereoSGBM").
 //
 // Regions (left view, all need a truth disparity):
 //   visible  the truth point is inside the right image (0 <= u - d <= W - 1) and not occluded there:
