@@ -9,7 +9,7 @@
 
 #include <GeographicLib/LocalCartesian.hpp>
 
-#include "formats/flight_track.h"
+#include "formats/flight_log/flight_track.h"
 #include "stages/simulate/flight_path.h"
 #include "stages/simulate/simulation_options.h"
 
