@@ -2,6 +2,8 @@
 // Small text-parsing helpers shared by the flight-log text readers: strict
 // number parsing (no locale, no silent partial parses) and CSV field splitting
 // that remembers each field's column so errors can point at it.
+// Kept apart from formats/trajectory/trajectory_text.h on purpose: these report
+// failure by return value and split quoted CSV; that one throws and splits plain CSV.
 
 #include <cstdint>
 #include <istream>

@@ -1,6 +1,7 @@
 #pragma once
 // Line and field scanning shared by the trajectory readers (internal to rs_trajectory_io).
 // Keeps the 1-based line and column of every field so errors point into the input.
+// Not formats/flight_log/flight_log_text.h: this throws InputError at the first bad field.
 
 #include <cstdint>
 #include <iosfwd>

@@ -1,4 +1,4 @@
-#include "formats/trajectory/text_fields.h"
+#include "formats/trajectory/trajectory_text.h"
 
 #include <charconv>
 #include <cmath>
