@@ -147,172 +147,196 @@ std::optional<BootClockFit> FitBootClock(const DataflashFile& log) {
 
 }  // namespace dataflash
 
-FlightTrack DataflashToFlightTrack(const dataflash::DataflashFile& log, const std::string& path) {
-  FlightTrack track;
-  track.source_path = path;
-  track.format = "ardupilot-dataflash";
+namespace {
 
+/// Notes on the boot->UTC fit, and on a boot clock whose rate is visibly off.
+void AddClockNotes(const std::optional<dataflash::BootClockFit>& clock, FlightTrack* track) {
+  if (!clock) return;
+  track->notes.push_back(fmt::format(
+      "UTC from GPS week/ms (GPS-UTC leap seconds applied): boot clock fitted over {} 3D fixes, "
+      "rate {:.6f}, max residual {:.3f} s",
+      clock->pairs, clock->rate, clock->max_residual_s));
+  if (std::fabs(clock->rate - 1) > 1e-3) {
+    track->notes.push_back(fmt::format("boot clock runs {:.2f} % {} than GPS time", std::fabs(clock->rate - 1) * 100,
+                                       clock->rate > 1 ? "slower" : "faster"));
+  }
+}
+
+/// A boot time (us) on the track's clock: UTC through the fit where there is one, else boot ns.
+std::optional<int64_t> TrackNs(const std::optional<dataflash::BootClockFit>& clock, std::optional<int64_t> boot_us) {
+  if (!boot_us) return std::nullopt;
+  return clock ? clock->ToUtcNs(*boot_us * 1000) : *boot_us * 1000;
+}
+
+/// GNSS fixes from the primary GPS instance, timed by their own GPS time where
+/// the clock is fitted; re-logged, timeless or fix-less records are dropped and counted.
+void AddFixes(const dataflash::DataflashFile& log, const std::optional<dataflash::BootClockFit>& clock,
+              FlightTrack* track) {
   const MessageType* gps = log.Find("GPS");
-  const auto inst = gps ? gps->ColumnIndex("I") : std::nullopt;
+  if (!gps) return;
+  const auto inst = gps->ColumnIndex("I");
   auto primary = [&](size_t row) { return !inst || gps->Int(row, *inst) == 0; };
-  const auto status = gps ? gps->ColumnIndex("Status") : std::nullopt;
-
-  // Boot -> UTC: a linear fit over GPS records that carry both clocks. Some
-  // boards' boot clock runs measurably slow or fast (the 2014 PXF logs: ~8 %),
-  // so a constant offset is not enough.
-  std::optional<dataflash::BootClockFit> clock = dataflash::FitBootClock(log);
-  if (clock) {
-    {
-      track.notes.push_back(fmt::format(
-          "UTC from GPS week/ms (GPS-UTC leap seconds applied): boot clock fitted over {} 3D fixes, "
-          "rate {:.6f}, max residual {:.3f} s",
-          clock->pairs, clock->rate, clock->max_residual_s));
-      if (std::fabs(clock->rate - 1) > 1e-3) {
-        track.notes.push_back(fmt::format("boot clock runs {:.2f} % {} than GPS time", std::fabs(clock->rate - 1) * 100,
-                                          clock->rate > 1 ? "slower" : "faster"));
+  const auto status = gps->ColumnIndex("Status");
+  const BootClock bc = FindBootClock(*gps);
+  const auto lat = gps->ColumnIndex("Lat"), lng = gps->ColumnIndex("Lng"), alt = gps->ColumnIndex("Alt");
+  const auto sats = gps->ColumnIndex("NSats"), spd = gps->ColumnIndex("Spd");
+  if (!lat || !lng || !bc.col) {
+    track->notes.push_back("GPS message lacks Lat/Lng or a time column: no fixes");
+  } else {
+    const GpsClock gc = FindGpsClock(*gps, "GWk", "GMS");
+    int dropped = 0, total = 0, repeats = 0;
+    std::optional<int64_t> prev_utc;
+    for (size_t r = 0; r < gps->size(); ++r) {
+      if (!primary(r)) continue;
+      ++total;
+      GnssFix f;
+      // A fix's own epoch is its GPS time; the boot column is when it was
+      // logged, and old firmware re-logs the last fix until a new one arrives.
+      const auto utc = clock ? GpsUtcNs(*gps, gc, r) : std::nullopt;
+      if (utc && prev_utc && *utc == *prev_utc) {
+        ++repeats;
+        continue;
       }
-    }
-  }
-  track.time_base = clock ? TimeBase::kUtc : TimeBase::kBoot;
-  if (!clock) track.notes.push_back("no GPS week/ms with a 3D fix: t_ns is time since autopilot boot");
-  auto to_ns = [&](std::optional<int64_t> boot_us) -> std::optional<int64_t> {
-    if (!boot_us) return std::nullopt;
-    return clock ? clock->ToUtcNs(*boot_us * 1000) : *boot_us * 1000;
-  };
-
-  if (gps) {
-    const BootClock bc = FindBootClock(*gps);
-    const auto lat = gps->ColumnIndex("Lat"), lng = gps->ColumnIndex("Lng"), alt = gps->ColumnIndex("Alt");
-    const auto sats = gps->ColumnIndex("NSats"), spd = gps->ColumnIndex("Spd");
-    if (!lat || !lng || !bc.col) {
-      track.notes.push_back("GPS message lacks Lat/Lng or a time column: no fixes");
-    } else {
-      const GpsClock gc = FindGpsClock(*gps, "GWk", "GMS");
-      int dropped = 0, total = 0, repeats = 0;
-      std::optional<int64_t> prev_utc;
-      for (size_t r = 0; r < gps->size(); ++r) {
-        if (!primary(r)) continue;
-        ++total;
-        GnssFix f;
-        // A fix's own epoch is its GPS time; the boot column is when it was
-        // logged, and old firmware re-logs the last fix until a new one arrives.
-        const auto utc = clock ? GpsUtcNs(*gps, gc, r) : std::nullopt;
-        if (utc && prev_utc && *utc == *prev_utc) {
-          ++repeats;
-          continue;
-        }
-        if (utc) prev_utc = utc;
-        const auto t = utc ? utc : to_ns(BootUs(*gps, bc, r));
-        if (!t) {
-          ++dropped;
-          continue;
-        }
-        f.t_ns = *t;
-        f.lat_deg = gps->Value(r, *lat);
-        f.lon_deg = gps->Value(r, *lng);
-        if (status) f.fix_type = static_cast<int>(gps->Int(r, *status));
-        if ((status && f.fix_type < 2) || std::fabs(f.lat_deg) > 90 || std::fabs(f.lon_deg) > 180 ||
-            (f.lat_deg == 0 && f.lon_deg == 0)) {
-          ++dropped;
-          continue;
-        }
-        if (alt) {
-          f.alt_m = gps->Value(r, *alt);
-          f.alt_ref = AltitudeReference::kAmsl;
-        }
-        if (sats) f.satellites = static_cast<int>(gps->Int(r, *sats));
-        if (spd) f.ground_speed_m_s = gps->Value(r, *spd);
-        track.fixes.push_back(f);
-      }
-      if (dropped > 0) track.notes.push_back(fmt::format("dropped {} of {} GPS records without a fix", dropped, total));
-      if (repeats > 0) track.notes.push_back(fmt::format("dropped {} GPS records repeating the previous fix's GPS time", repeats));
-      if (inst) track.notes.push_back("GPS: instance 0 (primary) used");
-    }
-    if (log.Find("GPS2")) track.notes.push_back("GPS2 (second receiver) present, not used");
-  }
-
-  // Attitude.
-  const MessageType* att = log.Find("ATT");
-  if (!att || !att->ColumnIndex("Roll")) att = log.Find("AHR2");
-  if (att) {
-    const BootClock bc = FindBootClock(*att);
-    const auto roll = att->ColumnIndex("Roll"), pitch = att->ColumnIndex("Pitch"), yaw = att->ColumnIndex("Yaw");
-    if (roll && pitch && yaw && bc.col) {
-      int dropped = 0;
-      for (size_t r = 0; r < att->size(); ++r) {
-        const auto t = to_ns(BootUs(*att, bc, r));
-        if (!t) {
-          ++dropped;
-          continue;
-        }
-        track.attitude.push_back(FromEulerDeg(*t, att->Value(r, *roll), att->Value(r, *pitch), att->Value(r, *yaw)));
-      }
-      if (dropped > 0) track.notes.push_back(fmt::format("dropped {} {} records with an invalid time", dropped, att->name));
-      track.notes.push_back(fmt::format("attitude from {}", att->name));
-    }
-  }
-
-  // Camera events.
-  const MessageType* cam = log.Find("CAM");
-  if (!cam) cam = log.Find("TRIG");
-  if (cam) {
-    const BootClock bc = FindBootClock(*cam);
-    const GpsClock gc = FindGpsClock(*cam, "GPSWeek", "GPSTime");
-    const auto img = cam->ColumnIndex("Img");
-    const auto lat = cam->ColumnIndex("Lat"), lng = cam->ColumnIndex("Lng");
-    std::optional<size_t> alt;
-    AltitudeReference ref = AltitudeReference::kUnknown;
-    if ((alt = cam->ColumnIndex("GPSAlt"))) {
-      ref = AltitudeReference::kAmsl;
-    } else if ((alt = cam->ColumnIndex("RelAlt"))) {
-      ref = AltitudeReference::kTakeoff;
-    } else {
-      alt = cam->ColumnIndex("Alt");
-    }
-    int dropped = 0;
-    for (size_t r = 0; r < cam->size(); ++r) {
-      CameraEvent e;
-      if (auto boot = to_ns(BootUs(*cam, bc, r))) {
-        e.t_ns = *boot;
-      } else if (auto utc = GpsUtcNs(*cam, gc, r); utc && clock) {
-        e.t_ns = *utc;
-      } else {
+      if (utc) prev_utc = utc;
+      const auto t = utc ? utc : TrackNs(clock, BootUs(*gps, bc, r));
+      if (!t) {
         ++dropped;
         continue;
       }
-      if (img) e.sequence = cam->Int(r, *img);
-      if (lat && lng) {
-        e.lat_deg = cam->Value(r, *lat);
-        e.lon_deg = cam->Value(r, *lng);
+      f.t_ns = *t;
+      f.lat_deg = gps->Value(r, *lat);
+      f.lon_deg = gps->Value(r, *lng);
+      if (status) f.fix_type = static_cast<int>(gps->Int(r, *status));
+      if ((status && f.fix_type < 2) || std::fabs(f.lat_deg) > 90 || std::fabs(f.lon_deg) > 180 ||
+          (f.lat_deg == 0 && f.lon_deg == 0)) {
+        ++dropped;
+        continue;
       }
       if (alt) {
-        e.alt_m = cam->Value(r, *alt);
-        e.alt_ref = ref;
+        f.alt_m = gps->Value(r, *alt);
+        f.alt_ref = AltitudeReference::kAmsl;
       }
-      track.camera_events.push_back(e);
+      if (sats) f.satellites = static_cast<int>(gps->Int(r, *sats));
+      if (spd) f.ground_speed_m_s = gps->Value(r, *spd);
+      track->fixes.push_back(f);
     }
-    track.notes.push_back(fmt::format("camera events from {}", cam->name));
-    if (dropped > 0) track.notes.push_back(fmt::format("dropped {} {} records without a usable time", dropped, cam->name));
+    if (dropped > 0) track->notes.push_back(fmt::format("dropped {} of {} GPS records without a fix", dropped, total));
+    if (repeats > 0) track->notes.push_back(fmt::format("dropped {} GPS records repeating the previous fix's GPS time", repeats));
+    if (inst) track->notes.push_back("GPS: instance 0 (primary) used");
   }
+  if (log.Find("GPS2")) track->notes.push_back("GPS2 (second receiver) present, not used");
+}
 
-  auto by_t = [](const auto& a, const auto& b) { return a.t_ns < b.t_ns; };
-  std::stable_sort(track.fixes.begin(), track.fixes.end(), by_t);
-  std::stable_sort(track.attitude.begin(), track.attitude.end(), by_t);
-  std::stable_sort(track.camera_events.begin(), track.camera_events.end(), by_t);
+/// Attitude from ATT (or AHR2 where ATT has no angles); records without a valid time are dropped and counted.
+void AddAttitude(const dataflash::DataflashFile& log, const std::optional<dataflash::BootClockFit>& clock,
+                 FlightTrack* track) {
+  const MessageType* att = log.Find("ATT");
+  if (!att || !att->ColumnIndex("Roll")) att = log.Find("AHR2");
+  if (!att) return;
+  const BootClock bc = FindBootClock(*att);
+  const auto roll = att->ColumnIndex("Roll"), pitch = att->ColumnIndex("Pitch"), yaw = att->ColumnIndex("Yaw");
+  if (!roll || !pitch || !yaw || !bc.col) return;
+  int dropped = 0;
+  for (size_t r = 0; r < att->size(); ++r) {
+    const auto t = TrackNs(clock, BootUs(*att, bc, r));
+    if (!t) {
+      ++dropped;
+      continue;
+    }
+    track->attitude.push_back(FromEulerDeg(*t, att->Value(r, *roll), att->Value(r, *pitch), att->Value(r, *yaw)));
+  }
+  if (dropped > 0) track->notes.push_back(fmt::format("dropped {} {} records with an invalid time", dropped, att->name));
+  track->notes.push_back(fmt::format("attitude from {}", att->name));
+}
 
+/// Camera events from CAM (or TRIG), timed by boot time, else by their GPS time
+/// when the clock is fitted; the altitude column says which reference it carries.
+void AddCameraEvents(const dataflash::DataflashFile& log, const std::optional<dataflash::BootClockFit>& clock,
+                     FlightTrack* track) {
+  const MessageType* cam = log.Find("CAM");
+  if (!cam) cam = log.Find("TRIG");
+  if (!cam) return;
+  const BootClock bc = FindBootClock(*cam);
+  const GpsClock gc = FindGpsClock(*cam, "GPSWeek", "GPSTime");
+  const auto img = cam->ColumnIndex("Img");
+  const auto lat = cam->ColumnIndex("Lat"), lng = cam->ColumnIndex("Lng");
+  std::optional<size_t> alt;
+  AltitudeReference ref = AltitudeReference::kUnknown;
+  if ((alt = cam->ColumnIndex("GPSAlt"))) {
+    ref = AltitudeReference::kAmsl;
+  } else if ((alt = cam->ColumnIndex("RelAlt"))) {
+    ref = AltitudeReference::kTakeoff;
+  } else {
+    alt = cam->ColumnIndex("Alt");
+  }
+  int dropped = 0;
+  for (size_t r = 0; r < cam->size(); ++r) {
+    CameraEvent e;
+    if (auto boot = TrackNs(clock, BootUs(*cam, bc, r))) {
+      e.t_ns = *boot;
+    } else if (auto utc = GpsUtcNs(*cam, gc, r); utc && clock) {
+      e.t_ns = *utc;
+    } else {
+      ++dropped;
+      continue;
+    }
+    if (img) e.sequence = cam->Int(r, *img);
+    if (lat && lng) {
+      e.lat_deg = cam->Value(r, *lat);
+      e.lon_deg = cam->Value(r, *lng);
+    }
+    if (alt) {
+      e.alt_m = cam->Value(r, *alt);
+      e.alt_ref = ref;
+    }
+    track->camera_events.push_back(e);
+  }
+  track->notes.push_back(fmt::format("camera events from {}", cam->name));
+  if (dropped > 0) track->notes.push_back(fmt::format("dropped {} {} records without a usable time", dropped, cam->name));
+}
+
+/// Notes on what the file reader skipped or could not use, so a damaged log says so.
+void AddFileNotes(const dataflash::DataflashFile& log, FlightTrack* track) {
   if (log.skipped_bytes > 0) {
     std::string where;
     for (size_t i = 0; i < log.skips.size() && i < 5; ++i) {
       where += fmt::format("{}{} bytes at byte {} ({})", i ? "; " : "", log.skips[i].bytes, log.skips[i].offset,
                            log.skips[i].reason);
     }
-    track.notes.push_back(fmt::format("skipped {} bytes in {} runs: {}{}", log.skipped_bytes, log.skip_runs, where,
-                                      log.skip_runs > 5 ? "; ..." : ""));
+    track->notes.push_back(fmt::format("skipped {} bytes in {} runs: {}{}", log.skipped_bytes, log.skip_runs, where,
+                                       log.skip_runs > 5 ? "; ..." : ""));
   }
   if (log.rejected_formats > 0) {
-    track.notes.push_back(fmt::format("{} FMT definitions unusable (unknown format characters or bad length)",
-                                      log.rejected_formats));
+    track->notes.push_back(fmt::format("{} FMT definitions unusable (unknown format characters or bad length)",
+                                       log.rejected_formats));
   }
+}
+
+}  // namespace
+
+FlightTrack DataflashToFlightTrack(const dataflash::DataflashFile& log, const std::string& path) {
+  FlightTrack track;
+  track.source_path = path;
+  track.format = "ardupilot-dataflash";
+
+  // Boot -> UTC: a linear fit over GPS records that carry both clocks. Some
+  // boards' boot clock runs measurably slow or fast (the 2014 PXF logs: ~8 %),
+  // so a constant offset is not enough.
+  const std::optional<dataflash::BootClockFit> clock = dataflash::FitBootClock(log);
+  AddClockNotes(clock, &track);
+  track.time_base = clock ? TimeBase::kUtc : TimeBase::kBoot;
+  if (!clock) track.notes.push_back("no GPS week/ms with a 3D fix: t_ns is time since autopilot boot");
+
+  AddFixes(log, clock, &track);
+  AddAttitude(log, clock, &track);
+  AddCameraEvents(log, clock, &track);
+
+  auto by_t = [](const auto& a, const auto& b) { return a.t_ns < b.t_ns; };
+  std::stable_sort(track.fixes.begin(), track.fixes.end(), by_t);
+  std::stable_sort(track.attitude.begin(), track.attitude.end(), by_t);
+  std::stable_sort(track.camera_events.begin(), track.camera_events.end(), by_t);
+
+  AddFileNotes(log, &track);
   return track;
 }
 
