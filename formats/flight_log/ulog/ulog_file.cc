@@ -259,205 +259,231 @@ class Parser {
     return true;
   }
 
+  /// One message's header fields and payload; `end` is where the next one starts.
+  struct Msg {
+    size_t pos;
+    size_t size;
+    uint8_t type;
+    const uint8_t* p;
+    size_t end;
+  };
+
+  /// Corruption in message m (see Corrupt), described with its type and size.
+  size_t Bad(const Msg& m, const std::string& what) {
+    return Corrupt(m.pos, m.end, fmt::format("{} ('{}' message, {} bytes)", what, static_cast<char>(m.type), m.size));
+  }
+
   // Decodes the message at pos (known to fit the segment); returns the next position.
   size_t Message(size_t pos) {
     const size_t size = U16(&d_[pos]);
-    const uint8_t type = d_[pos + 2];
-    const uint8_t* p = &d_[pos + kMsgHeaderSize];
-    const size_t end = pos + kMsgHeaderSize + size;
-    const bool first = pos == kHeaderSize;
-    auto bad = [&](const std::string& what) {
-      return Corrupt(pos, end, fmt::format("{} ('{}' message, {} bytes)", what, static_cast<char>(type), size));
-    };
-    switch (type) {
-      case 'B': {
-        if (!first) return bad("flag bits message is not the first message");
-        if (size < 40) return bad("flag bits message too short");
-        std::memcpy(f_.compat_flags, p, 8);
-        std::memcpy(f_.incompat_flags, p + 8, 8);
-        if ((f_.incompat_flags[0] & ~1) != 0 ||
-            std::any_of(f_.incompat_flags + 1, f_.incompat_flags + 8, [](uint8_t b) { return b != 0; })) {
-          Fail(pos, "unknown incompatible flag set: this ULog cannot be parsed");
-        }
-        if (f_.incompat_flags[0] & 1) {
-          uint64_t prev = 0;
-          for (int i = 0; i < 3; ++i) {
-            const uint64_t off = U64(p + 16 + 8 * i);
-            if (off == 0) continue;
-            if (off <= end || off > d_.size() || off <= prev) {
-              // An offset must point forward, into the file, in increasing order.
-              if (!opt_.recover) Fail(pos, fmt::format("appended-data offset {} outside the file ({} bytes)", off, d_.size()));
-              f_.skips.push_back({static_cast<int64_t>(pos), 0, fmt::format("ignored appended-data offset {}", off)});
-              continue;
-            }
-            f_.appended_offsets.push_back(off);
-            prev = off;
-          }
-        }
-        return end;
-      }
-      case 'F': {
-        const std::string text(reinterpret_cast<const char*>(p), size);
-        const size_t colon = text.find(':');
-        if (colon == std::string::npos || colon == 0) return bad("format definition without 'name:'");
-        MessageFormat mf;
-        mf.name = text.substr(0, colon);
-        size_t start = colon + 1;
-        while (start <= text.size()) {
-          size_t semi = text.find(';', start);
-          if (semi == std::string::npos) semi = text.size();
-          const std::string piece = text.substr(start, semi - start);
-          if (!piece.empty()) {
-            FormatField ff;
-            if (!ParseFormatField(piece, &ff)) return bad("malformed field '" + piece + "' in format " + mf.name);
-            mf.fields.push_back(std::move(ff));
-          }
-          start = semi + 1;
-        }
-        f_.formats[mf.name] = std::move(mf);
-        return end;
-      }
+    const Msg m{pos, size, d_[pos + 2], &d_[pos + kMsgHeaderSize], pos + kMsgHeaderSize + size};
+    switch (m.type) {
+      case 'B': return FlagBits(m);
+      case 'F': return FormatDefinition(m);
       case 'I': {
         std::string key;
         InfoValue v;
-        if (!ParseInfo(p, size, &key, &v)) return bad("malformed info message");
+        if (!ParseInfo(m.p, m.size, &key, &v)) return Bad(m, "malformed info message");
         f_.info[key] = std::move(v);
-        return end;
+        return m.end;
       }
-      case 'M': {
-        std::string key;
-        InfoValue v;
-        if (size < 1 || !ParseInfo(p + 1, size - 1, &key, &v)) return bad("malformed info_multiple message");
-        auto& lists = f_.info_multiple[key];
-        if (p[0] != 0 && !lists.empty()) {
-          lists.back().push_back(std::move(v));
-        } else {
-          lists.push_back({std::move(v)});
-        }
-        return end;
-      }
-      case 'P': {
-        std::string key;
-        ParamValue v;
-        if (!ParseParam(p, size, &key, &v)) return bad("malformed parameter message");
-        if (in_definitions_) {
-          f_.initial_params[key] = v;
-        } else {
-          f_.changed_params.push_back({f_.last_timestamp_us, key, v});
-        }
-        return end;
-      }
-      case 'Q': {
-        std::string key;
-        ParamValue v;
-        if (size < 1 || !ParseParam(p + 1, size - 1, &key, &v)) return bad("malformed default parameter message");
-        for (int bit = 0; bit < 8; ++bit) {
-          if (p[0] & (1 << bit)) f_.default_params[bit][key] = v;
-        }
-        return end;
-      }
-      case 'A': {
-        in_definitions_ = false;
-        if (size < 4) return bad("subscription message too short");
-        const uint8_t multi_id = p[0];
-        const uint16_t msg_id = U16(p + 1);
-        const std::string name(reinterpret_cast<const char*>(p + 3), size - 3);
-        Topic t;
-        t.name = name;
-        t.multi_id = multi_id;
-        t.msg_id = msg_id;
-        try {
-          t.fields = FlattenFormat(f_.formats, name);
-        } catch (const std::invalid_argument& e) {
-          return bad(fmt::format("subscription to topic '{}': {}", name, e.what()));
-        }
-        t.max_record_size = t.fields.empty() ? 0 : t.fields.back().offset + BaseTypeSize(t.fields.back().type);
-        while (!t.fields.empty() && t.fields.back().name.rfind("_padding", 0) == 0) t.fields.pop_back();
-        t.record_size = t.fields.empty() ? 0 : t.fields.back().offset + BaseTypeSize(t.fields.back().type);
-        if (t.record_size == 0) return bad(fmt::format("subscription to empty topic '{}'", name));
-        for (size_t i = 0; i < t.fields.size(); ++i) {
-          if (t.fields[i].name == "timestamp" && t.fields[i].type == BaseType::kUInt64) t.timestamp_field = static_cast<int>(i);
-        }
-        const auto key = std::make_pair(name, static_cast<int>(multi_id));
-        auto it = by_name_.find(key);
-        if (it != by_name_.end()) {
-          Topic& old = work_[it->second];
-          if (old.record_size != t.record_size || old.fields.size() != t.fields.size()) {
-            return bad(fmt::format("topic '{}' instance {} re-subscribed with another layout", name, multi_id));
-          }
-          old.msg_id = msg_id;
-          subs_[msg_id] = it->second;
-        } else {
-          work_.push_back(std::move(t));
-          by_name_[key] = work_.size() - 1;
-          subs_[msg_id] = work_.size() - 1;
-        }
-        return end;
-      }
+      case 'M': return InfoMultiple(m);
+      case 'P': return Parameter(m);
+      case 'Q': return DefaultParameter(m);
+      case 'A': return Subscription(m);
       case 'R': {
-        if (size != 2) return bad("unsubscribe message must be 2 bytes");
-        subs_.erase(U16(p));
-        return end;
+        if (m.size != 2) return Bad(m, "unsubscribe message must be 2 bytes");
+        subs_.erase(U16(m.p));
+        return m.end;
       }
-      case 'D': {
-        in_definitions_ = false;
-        if (size < 2) return bad("data message too short");
-        const uint16_t msg_id = U16(p);
-        auto it = subs_.find(msg_id);
-        if (it == subs_.end()) return bad(fmt::format("data for msg_id {} without subscription", msg_id));
-        Topic& t = work_[it->second];
-        const size_t n = size - 2;
-        if (n < t.record_size || n > t.max_record_size) {
-          return bad(fmt::format("data for topic '{}' has {} bytes, format needs {}", t.name, n, t.record_size));
-        }
-        t.records.insert(t.records.end(), p + 2, p + 2 + t.record_size);
-        if (t.timestamp_field >= 0) {
-          const uint64_t ts = U64(p + 2 + t.fields[t.timestamp_field].offset);
-          f_.last_timestamp_us = std::max(f_.last_timestamp_us, ts);
-        }
-        return end;
-      }
-      case 'L': {
-        in_definitions_ = false;
-        if (size < 9) return bad("logged string message too short");
-        LogMessage m;
-        m.level = p[0];
-        m.timestamp_us = U64(p + 1);
-        m.text.assign(reinterpret_cast<const char*>(p + 9), size - 9);
-        f_.messages.push_back(std::move(m));
-        return end;
-      }
-      case 'C': {
-        in_definitions_ = false;
-        if (size < 11) return bad("tagged logged string message too short");
-        LogMessage m;
-        m.level = p[0];
-        m.tagged = true;
-        m.tag = U16(p + 1);
-        m.timestamp_us = U64(p + 3);
-        m.text.assign(reinterpret_cast<const char*>(p + 11), size - 11);
-        f_.messages.push_back(std::move(m));
-        return end;
-      }
+      case 'D': return Data(m);
+      case 'L': case 'C': return LoggedString(m);
       case 'O': {
-        if (size != 2) return bad("dropout message must be 2 bytes");
-        f_.dropouts.push_back({f_.last_timestamp_us, U16(p)});
-        return end;
+        if (m.size != 2) return Bad(m, "dropout message must be 2 bytes");
+        f_.dropouts.push_back({f_.last_timestamp_us, U16(m.p)});
+        return m.end;
       }
       case 'S': {
-        if (size != 8 || std::memcmp(p, kSyncMagic, 8) != 0) return bad("sync message with wrong magic");
+        if (m.size != 8 || std::memcmp(m.p, kSyncMagic, 8) != 0) return Bad(m, "sync message with wrong magic");
         ++f_.sync_count;
-        return end;
+        return m.end;
       }
       default:
         // The spec lets new message types appear; readers skip them. A type
         // that is not a letter cannot be one, so that is corruption.
-        if (size > 0 && ((type >= 'A' && type <= 'Z') || (type >= 'a' && type <= 'z'))) {
-          ++f_.unknown_message_types[static_cast<char>(type)];
-          return end;
+        if (m.size > 0 && ((m.type >= 'A' && m.type <= 'Z') || (m.type >= 'a' && m.type <= 'z'))) {
+          ++f_.unknown_message_types[static_cast<char>(m.type)];
+          return m.end;
         }
-        return Corrupt(pos, end, fmt::format("invalid message type 0x{:02x} ({} bytes)", type, size));
+        return Corrupt(m.pos, m.end, fmt::format("invalid message type 0x{:02x} ({} bytes)", m.type, m.size));
     }
+  }
+
+  /// 'B': compatibility flags (must be the first message) and the appended-data
+  /// offsets, which must point forward into the file in increasing order.
+  size_t FlagBits(const Msg& m) {
+    if (m.pos != kHeaderSize) return Bad(m, "flag bits message is not the first message");
+    if (m.size < 40) return Bad(m, "flag bits message too short");
+    std::memcpy(f_.compat_flags, m.p, 8);
+    std::memcpy(f_.incompat_flags, m.p + 8, 8);
+    if ((f_.incompat_flags[0] & ~1) != 0 ||
+        std::any_of(f_.incompat_flags + 1, f_.incompat_flags + 8, [](uint8_t b) { return b != 0; })) {
+      Fail(m.pos, "unknown incompatible flag set: this ULog cannot be parsed");
+    }
+    if (f_.incompat_flags[0] & 1) {
+      uint64_t prev = 0;
+      for (int i = 0; i < 3; ++i) {
+        const uint64_t off = U64(m.p + 16 + 8 * i);
+        if (off == 0) continue;
+        if (off <= m.end || off > d_.size() || off <= prev) {
+          if (!opt_.recover) Fail(m.pos, fmt::format("appended-data offset {} outside the file ({} bytes)", off, d_.size()));
+          f_.skips.push_back({static_cast<int64_t>(m.pos), 0, fmt::format("ignored appended-data offset {}", off)});
+          continue;
+        }
+        f_.appended_offsets.push_back(off);
+        prev = off;
+      }
+    }
+    return m.end;
+  }
+
+  /// 'F': a message format "name:type field;type field;...".
+  size_t FormatDefinition(const Msg& m) {
+    const std::string text(reinterpret_cast<const char*>(m.p), m.size);
+    const size_t colon = text.find(':');
+    if (colon == std::string::npos || colon == 0) return Bad(m, "format definition without 'name:'");
+    MessageFormat mf;
+    mf.name = text.substr(0, colon);
+    size_t start = colon + 1;
+    while (start <= text.size()) {
+      size_t semi = text.find(';', start);
+      if (semi == std::string::npos) semi = text.size();
+      const std::string piece = text.substr(start, semi - start);
+      if (!piece.empty()) {
+        FormatField ff;
+        if (!ParseFormatField(piece, &ff)) return Bad(m, "malformed field '" + piece + "' in format " + mf.name);
+        mf.fields.push_back(std::move(ff));
+      }
+      start = semi + 1;
+    }
+    f_.formats[mf.name] = std::move(mf);
+    return m.end;
+  }
+
+  /// 'M': one piece of a multi-part info value; a continuation flag appends it to the last list.
+  size_t InfoMultiple(const Msg& m) {
+    std::string key;
+    InfoValue v;
+    if (m.size < 1 || !ParseInfo(m.p + 1, m.size - 1, &key, &v)) return Bad(m, "malformed info_multiple message");
+    auto& lists = f_.info_multiple[key];
+    if (m.p[0] != 0 && !lists.empty()) {
+      lists.back().push_back(std::move(v));
+    } else {
+      lists.push_back({std::move(v)});
+    }
+    return m.end;
+  }
+
+  /// 'P': a parameter; initial while still in the definitions, else a change at the last timestamp.
+  size_t Parameter(const Msg& m) {
+    std::string key;
+    ParamValue v;
+    if (!ParseParam(m.p, m.size, &key, &v)) return Bad(m, "malformed parameter message");
+    if (in_definitions_) {
+      f_.initial_params[key] = v;
+    } else {
+      f_.changed_params.push_back({f_.last_timestamp_us, key, v});
+    }
+    return m.end;
+  }
+
+  /// 'Q': a default parameter value for each configuration whose bit is set.
+  size_t DefaultParameter(const Msg& m) {
+    std::string key;
+    ParamValue v;
+    if (m.size < 1 || !ParseParam(m.p + 1, m.size - 1, &key, &v)) return Bad(m, "malformed default parameter message");
+    for (int bit = 0; bit < 8; ++bit) {
+      if (m.p[0] & (1 << bit)) f_.default_params[bit][key] = v;
+    }
+    return m.end;
+  }
+
+  /// 'A': subscribes msg_id to a topic instance; a re-subscription must keep the layout.
+  size_t Subscription(const Msg& m) {
+    in_definitions_ = false;
+    if (m.size < 4) return Bad(m, "subscription message too short");
+    const uint8_t multi_id = m.p[0];
+    const uint16_t msg_id = U16(m.p + 1);
+    const std::string name(reinterpret_cast<const char*>(m.p + 3), m.size - 3);
+    Topic t;
+    t.name = name;
+    t.multi_id = multi_id;
+    t.msg_id = msg_id;
+    try {
+      t.fields = FlattenFormat(f_.formats, name);
+    } catch (const std::invalid_argument& e) {
+      return Bad(m, fmt::format("subscription to topic '{}': {}", name, e.what()));
+    }
+    t.max_record_size = t.fields.empty() ? 0 : t.fields.back().offset + BaseTypeSize(t.fields.back().type);
+    while (!t.fields.empty() && t.fields.back().name.rfind("_padding", 0) == 0) t.fields.pop_back();
+    t.record_size = t.fields.empty() ? 0 : t.fields.back().offset + BaseTypeSize(t.fields.back().type);
+    if (t.record_size == 0) return Bad(m, fmt::format("subscription to empty topic '{}'", name));
+    for (size_t i = 0; i < t.fields.size(); ++i) {
+      if (t.fields[i].name == "timestamp" && t.fields[i].type == BaseType::kUInt64) t.timestamp_field = static_cast<int>(i);
+    }
+    const auto key = std::make_pair(name, static_cast<int>(multi_id));
+    auto it = by_name_.find(key);
+    if (it != by_name_.end()) {
+      Topic& old = work_[it->second];
+      if (old.record_size != t.record_size || old.fields.size() != t.fields.size()) {
+        return Bad(m, fmt::format("topic '{}' instance {} re-subscribed with another layout", name, multi_id));
+      }
+      old.msg_id = msg_id;
+      subs_[msg_id] = it->second;
+    } else {
+      work_.push_back(std::move(t));
+      by_name_[key] = work_.size() - 1;
+      subs_[msg_id] = work_.size() - 1;
+    }
+    return m.end;
+  }
+
+  /// 'D': one record of a subscribed topic (trailing padding dropped); advances the last timestamp.
+  size_t Data(const Msg& m) {
+    in_definitions_ = false;
+    if (m.size < 2) return Bad(m, "data message too short");
+    const uint16_t msg_id = U16(m.p);
+    auto it = subs_.find(msg_id);
+    if (it == subs_.end()) return Bad(m, fmt::format("data for msg_id {} without subscription", msg_id));
+    Topic& t = work_[it->second];
+    const size_t n = m.size - 2;
+    if (n < t.record_size || n > t.max_record_size) {
+      return Bad(m, fmt::format("data for topic '{}' has {} bytes, format needs {}", t.name, n, t.record_size));
+    }
+    t.records.insert(t.records.end(), m.p + 2, m.p + 2 + t.record_size);
+    if (t.timestamp_field >= 0) {
+      const uint64_t ts = U64(m.p + 2 + t.fields[t.timestamp_field].offset);
+      f_.last_timestamp_us = std::max(f_.last_timestamp_us, ts);
+    }
+    return m.end;
+  }
+
+  /// 'L' / 'C': a logged string, the tagged form ('C') carrying a 16-bit tag before the timestamp.
+  size_t LoggedString(const Msg& m) {
+    in_definitions_ = false;
+    const bool tagged = m.type == 'C';
+    const size_t text_at = tagged ? 11 : 9;
+    if (m.size < text_at) return Bad(m, tagged ? "tagged logged string message too short" : "logged string message too short");
+    LogMessage lm;
+    lm.level = m.p[0];
+    if (tagged) {
+      lm.tagged = true;
+      lm.tag = U16(m.p + 1);
+    }
+    lm.timestamp_us = U64(m.p + (tagged ? 3 : 1));
+    lm.text.assign(reinterpret_cast<const char*>(m.p + text_at), m.size - text_at);
+    f_.messages.push_back(std::move(lm));
+    return m.end;
   }
 
   void Finish() {
