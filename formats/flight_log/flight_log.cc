@@ -11,8 +11,8 @@
 #include "formats/flight_log/gpx.h"
 #include "formats/flight_log/kitti_oxts.h"
 #include "formats/flight_log/track_csv.h"
-#include "formats/input_error.h"
 #include "formats/flight_log/ulog/ulog_track.h"
+#include "formats/input_error.h"
 
 namespace rs {
 namespace fs = std::filesystem;

@@ -8,8 +8,8 @@
 
 #include <gtest/gtest.h>
 
-#include "formats/input_error.h"
 #include "formats/flight_log/ulog/ulog_test_builder.h"
+#include "formats/input_error.h"
 
 namespace rs::ulog {
 namespace {

@@ -5,8 +5,8 @@
 #include <sstream>
 #include <string>
 
-#include "formats/input_error.h"
 #include "formats/flight_log/ulog/ulog_track.h"
+#include "formats/input_error.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string bytes(reinterpret_cast<const char*>(data), size);
