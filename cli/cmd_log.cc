@@ -15,7 +15,7 @@
 #include "cli/command.h"
 #include "cli/tool_util.h"
 #include "formats/flight_log/flight_log.h"
-#include "formats/flightlog/track_csv.h"
+#include "formats/flight_log/track_csv.h"
 
 namespace rs {
 namespace {

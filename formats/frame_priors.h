@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "formats/flight_track.h"
+#include "formats/altitude_reference.h"
 #include "formats/frame_index.h"
 
 namespace rs {

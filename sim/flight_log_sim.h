@@ -9,7 +9,7 @@
 
 #include <GeographicLib/LocalCartesian.hpp>
 
-#include "formats/flight_track.h"
+#include "formats/flight_log/flight_track.h"
 #include "sim/flight_path.h"
 #include "sim/simulation_options.h"
 

@@ -13,10 +13,10 @@
 #include <nlohmann/json.hpp>
 #include <tbb/global_control.h>
 
-#include "formats/dataflash/dataflash_writer.h"
-#include "formats/flightlog/track_csv.h"
+#include "formats/flight_log/dataflash/dataflash_writer.h"
+#include "formats/flight_log/track_csv.h"
 #include "formats/stereo/calibration_yaml.h"
-#include "formats/ulog/ulog_writer.h"
+#include "formats/flight_log/ulog/ulog_writer.h"
 #include "sim/flight_log_sim.h"
 #include "sim/flight_path.h"
 #include "sim/frame_writer.h"

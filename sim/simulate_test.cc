@@ -11,12 +11,12 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "formats/dataflash/dataflash_track.h"
+#include "formats/flight_log/dataflash/dataflash_track.h"
 #include "formats/flight_log/flight_log.h"
-#include "formats/flightlog/track_csv.h"
+#include "formats/flight_log/track_csv.h"
 #include "formats/geojson/geojson.h"
 #include "formats/stereo/calibration_yaml.h"
-#include "formats/ulog/ulog_track.h"
+#include "formats/flight_log/ulog/ulog_track.h"
 #include "sim/flight_log_sim.h"
 #include "sim/road_scene.h"
 

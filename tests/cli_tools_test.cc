@@ -21,7 +21,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "formats/flightlog/track_csv.h"
+#include "formats/flight_log/track_csv.h"
 #include "formats/stereo/calibration_yaml.h"
 #include "eval/disparity/disparity_eval.h"
 #include "formats/disparity/disparity_io.h"

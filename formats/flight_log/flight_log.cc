@@ -5,14 +5,14 @@
 #include <algorithm>
 #include <fstream>
 
-#include "formats/dataflash/dataflash_track.h"
-#include "formats/flightlog/dji_srt.h"
-#include "formats/flightlog/flight_csv.h"
-#include "formats/flightlog/gpx.h"
-#include "formats/flightlog/kitti_oxts.h"
-#include "formats/flightlog/track_csv.h"
+#include "formats/flight_log/dataflash/dataflash_track.h"
+#include "formats/flight_log/dji_srt.h"
+#include "formats/flight_log/flight_csv.h"
+#include "formats/flight_log/gpx.h"
+#include "formats/flight_log/kitti_oxts.h"
+#include "formats/flight_log/track_csv.h"
+#include "formats/flight_log/ulog/ulog_track.h"
 #include "formats/input_error.h"
-#include "formats/ulog/ulog_track.h"
 
 namespace rs {
 namespace fs = std::filesystem;

@@ -5,7 +5,7 @@
 #include <filesystem>
 #include <string>
 
-#include "formats/flight_track.h"
+#include "formats/flight_log/flight_track.h"
 
 namespace rs {
 

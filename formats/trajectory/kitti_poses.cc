@@ -5,7 +5,7 @@
 #include <fmt/format.h>
 
 #include "formats/input_error.h"
-#include "formats/trajectory/text_fields.h"
+#include "formats/trajectory/trajectory_text.h"
 
 namespace rs {
 

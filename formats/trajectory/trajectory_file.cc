@@ -7,7 +7,7 @@
 #include "formats/input_error.h"
 #include "formats/trajectory/euroc_trajectory.h"
 #include "formats/trajectory/kitti_poses.h"
-#include "formats/trajectory/text_fields.h"
+#include "formats/trajectory/trajectory_text.h"
 #include "formats/trajectory/tum_trajectory.h"
 
 namespace rs {

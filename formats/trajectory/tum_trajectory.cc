@@ -5,8 +5,8 @@
 #include <fmt/format.h>
 
 #include "formats/input_error.h"
-#include "formats/trajectory/text_fields.h"
 #include "formats/trajectory/timestamp_text.h"
+#include "formats/trajectory/trajectory_text.h"
 
 namespace rs {
 

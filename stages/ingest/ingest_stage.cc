@@ -7,7 +7,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "formats/flight_log/flight_log.h"
-#include "formats/flightlog/track_csv.h"
+#include "formats/flight_log/track_csv.h"
 #include "formats/stereo/calibration_check.h"
 #include "formats/stereo/calibration_readers.h"
 #include "formats/stereo/calibration_yaml.h"

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "formats/flight_track.h"
+#include "formats/flight_log/flight_track.h"
 #include "formats/frame_index.h"
 #include "formats/frame_priors.h"
 

@@ -33,7 +33,7 @@ for fz in "${fuzzers[@]}"; do
   case "$fz" in
     ulog_fuzz) n=$(seed "$fz" "$data"/px4_ulog/**/*.ulg) ;;
     dataflash_fuzz) n=$(seed "$fz" "$data"/ardupilot_dataflash/**/*.BIN) ;;
-    csv_fuzz) n=$(seed "$fz" "$data"/kitti_raw_tiny/**/oxts/data/*.txt "$root"/formats/flightlog/*.md) ;;
+    csv_fuzz) n=$(seed "$fz" "$data"/kitti_raw_tiny/**/oxts/data/*.txt "$root"/formats/flight_log/*.md) ;;
     gpx_fuzz) n=$(seed "$fz" "$data"/gpx_tracks/**/*.gpx) ;;
     srt_fuzz) n=$(seed "$fz" "$data"/dji_srt/samples/*.SRT "$data"/dji_srt/samples/*.srt) ;;
     trajectory_io_fuzzer) n=$(seed "$fz" "$data"/kitti_euroc_trajectories/**/*.txt "$data"/kitti_euroc_trajectories/**/*.csv) ;;
