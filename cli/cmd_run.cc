@@ -17,7 +17,14 @@ Command RunCommand() {
             };
             auto args = std::make_shared<Args>();
             app.add_option("survey", args->survey, "survey file (survey.json)")->required();
-            app.add_option("--output", args->output, "output folder (overrides the survey file's \"output\")");
+            app.add_option("--output", args->output, "output folder (overrides the survey file's \"output\")")
+                ->check(CLI::Validator(
+                    [](std::string& dir) {
+                      // The survey file's "output" rule (schema: minLength 1); "" would silently mean "not given".
+                      return dir.empty() ? std::string("--output must name a folder (an empty path is not one)")
+                                         : std::string();
+                    },
+                    "DIR"));
             app.add_option("--rerun-from", args->rerun_from,
                            "recompute this stage and everything after it even if cached");
             app.add_option("--only", args->only, "run only this stage (its inputs must be cached)");

@@ -1,4 +1,4 @@
-// roadsurvey validate SURVEY.json: checks the survey file and every input up
+// roadsurvey validate SURVEY.json...: checks survey files and every input up
 // front, listing every problem at once with file and line.
 #include <fmt/format.h>
 
@@ -8,29 +8,54 @@
 #include "survey/executor.h"
 
 namespace rs {
+namespace {
+
+// Validates one survey file; returns whether it has errors. A file that cannot be loaded (bad JSON, schema,
+// path variable, option) is one error, printed like the others.
+bool ValidateOne(const std::string& survey_path, const StageRegistry& registry, const nlohmann::json& overrides) {
+  try {
+    const SurveyFile survey = LoadSurveyForCommand(survey_path, registry);
+    const nlohmann::json options = ResolveOptions(registry, survey, overrides);
+    ProblemList problems;
+    for (const auto& stage : registry.stages()) {
+      try {
+        stage->Validate(survey, options[stage->info().name], problems);
+      } catch (const InputError& e) {
+        problems.Add(e);
+      }
+    }
+    for (const auto& p : problems.items()) fmt::print("{}\n", p.ToString());
+    fmt::print("{}: {} error(s), {} warning(s)\n", survey.path.string(), problems.ErrorCount(),
+               problems.WarningCount());
+    return problems.HasErrors();
+  } catch (const ConfigError& e) {
+    fmt::print(stderr, "error: {}\n", e.what());
+  } catch (const InputError& e) {
+    fmt::print(stderr, "error: {}\n", e.what());
+  } catch (const OptionError& e) {
+    fmt::print(stderr, "error: {}\n", e.what());
+  }
+  fmt::print(stderr, "{}: cannot be loaded\n", survey_path);
+  return true;
+}
+
+}  // namespace
 
 Command ValidateCommand() {
-  return {"validate", "Check a survey file and all its inputs without processing; list every problem",
+  return {"validate", "Check survey files and all their inputs without processing; list every problem",
           [](CLI::App& app, const StageRegistry& registry) -> std::function<int()> {
-            auto survey_path = std::make_shared<std::string>();
-            app.add_option("survey", *survey_path, "survey file (survey.json)")->required();
+            auto survey_paths = std::make_shared<std::vector<std::string>>();
+            app.add_option("survey", *survey_paths, "survey file(s) (survey.json), each checked in turn")
+                ->required();
             auto flags = std::make_shared<OptionFlags>();
             flags->AddStages(app, registry);
-            return [survey_path, flags, &registry] {
-              const SurveyFile survey = LoadSurveyForCommand(*survey_path, registry);
-              const nlohmann::json options = ResolveOptions(registry, survey, flags->Overrides());
-              ProblemList problems;
-              for (const auto& stage : registry.stages()) {
-                try {
-                  stage->Validate(survey, options[stage->info().name], problems);
-                } catch (const InputError& e) {
-                  problems.Add(e);
-                }
-              }
-              for (const auto& p : problems.items()) fmt::print("{}\n", p.ToString());
-              fmt::print("{}: {} error(s), {} warning(s)\n", survey.path.string(), problems.ErrorCount(),
-                         problems.WarningCount());
-              return problems.HasErrors() ? kExitBadInput : kExitOk;
+            return [survey_paths, flags, &registry] {
+              const nlohmann::json overrides = flags->Overrides();
+              int with_errors = 0;
+              for (const auto& path : *survey_paths) with_errors += ValidateOne(path, registry, overrides);
+              if (survey_paths->size() > 1)
+                fmt::print("{} survey file(s), {} with errors\n", survey_paths->size(), with_errors);
+              return with_errors > 0 ? kExitBadInput : kExitOk;
             };
           }};
 }

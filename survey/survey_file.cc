@@ -6,7 +6,11 @@
 #include <valijson/schema_parser.hpp>
 #include <valijson/validator.hpp>
 
+#include <fstream>
+#include <sstream>
+
 #include "survey/atomic_file.h"
+#include "survey/path_variables.h"
 
 namespace rs {
 namespace fs = std::filesystem;
@@ -72,6 +76,28 @@ std::string KnownKeys(const nlohmann::json& schema, const std::string& pointer) 
   return keys;
 }
 
+// Where `value` (a JSON string) is written in the survey file, as file:line:column; the file alone when it cannot
+// be read (a document built in memory) or the text is not found.
+InputLocation LocateString(const fs::path& file, const std::string& value) {
+  std::ifstream in(file, std::ios::binary);
+  if (!in) return InputLocation::File(file.string());
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  const std::string text = buffer.str();
+  const size_t at = text.find(nlohmann::json(value).dump());
+  if (at == std::string::npos) return InputLocation::File(file.string());
+  int64_t line = 1, column = 1;
+  for (size_t i = 0; i < at; ++i) {
+    if (text[i] == '\n') {
+      ++line;
+      column = 1;
+    } else {
+      ++column;
+    }
+  }
+  return InputLocation::Line(file.string(), line, column);
+}
+
 }  // namespace
 
 ConfigError::ConfigError(std::vector<std::string> problems)
@@ -133,6 +159,14 @@ SurveyFile SurveyFromJson(const nlohmann::json& doc, const fs::path& path, const
   s.path = fs::absolute(path).lexically_normal();
   s.name = doc.at("name").get<std::string>();
   s.inputs = doc.at("inputs");
+  // ${ROADSURVEY_DATA} in input paths (docs/survey-file.md); the root is looked up only when some path uses it.
+  for (auto& item : s.inputs.items()) {
+    auto& input = item.value();
+    if (!input.contains("path")) continue;
+    const std::string value = input["path"].get<std::string>();
+    if (value.find("${") == std::string::npos) continue;
+    input["path"] = ExpandPathVariables(value, CurrentDataRoot(), LocateString(s.path, value));
+  }
   s.output_dir = s.Resolve(doc.at("output").get<std::string>());
   s.crs = doc.value("crs", std::string("utm"));
   s.stage_options = doc.value("stages", nlohmann::json::object());

@@ -25,11 +25,12 @@ class ConfigError : public std::runtime_error {
 };
 
 /// A loaded, schema-valid survey file. Relative paths resolve against the
-/// folder holding survey.json.
+/// folder holding survey.json; `${ROADSURVEY_DATA}` in an input path is
+/// already expanded (survey/path_variables.h).
 struct SurveyFile {
   std::filesystem::path path;      ///< absolute path of survey.json
   std::string name;                ///< survey name
-  nlohmann::json inputs;           ///< the "inputs" object as validated
+  nlohmann::json inputs;           ///< the "inputs" object as validated, path variables expanded
   std::filesystem::path output_dir;///< absolute output folder
   std::string crs;                 ///< output CRS: "utm", "enu" or "EPSG:<code>"
   nlohmann::json stage_options = nlohmann::json::object();  ///< "stages" object: stage -> overrides
@@ -45,7 +46,8 @@ struct SurveyFile {
 std::vector<std::string> ValidateAgainstSchema(const nlohmann::json& doc, const nlohmann::json& schema);
 
 /// Loads and validates a survey file. Throws InputError for unreadable or
-/// malformed JSON (with line:column) and ConfigError for schema violations.
+/// malformed JSON (with line:column) or an input path whose variable cannot be
+/// expanded (at the path's line:column), and ConfigError for schema violations.
 SurveyFile LoadSurveyFile(const std::filesystem::path& path, const nlohmann::json& schema);
 
 /// The same, from an already parsed document (path gives the base folder).
