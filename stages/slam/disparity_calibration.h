@@ -43,7 +43,7 @@ DisparityOffsetEstimate EstimateDisparityOffset(const std::vector<DisparityPairS
 
 /// Samples from the map: every live point seen with stereo by two of `keyframes` (consecutive ones
 /// of its observations, sorted by id), one pair index per keyframe pair; *num_pairs receives the count.
-std::vector<DisparityPairSample> CollectDisparitySamples(const SlamMap& map, const StereoCamera& camera,
+std::vector<DisparityPairSample> CollectDisparitySamples(const SlamMap& map, const RectifiedStereo& camera,
                                                          const std::vector<int>& keyframes, int* num_pairs);
 
 }  // namespace rs

@@ -47,7 +47,7 @@ std::vector<std::pair<int, int>> MatchByDescriptor(const StereoFeatures& a, cons
 
 /// Verifies that keyframe `query` sees the place of keyframe `candidate` (see the file comment).
 /// Deterministic for a seed.
-LoopVerification VerifyLoopCandidate(const SlamMap& map, int query, int candidate, const StereoCamera& camera,
+LoopVerification VerifyLoopCandidate(const SlamMap& map, int query, int candidate, const RectifiedStereo& camera,
                                      const ScalePyramid& pyramid, int min_inliers, unsigned seed);
 
 }  // namespace rs
