@@ -9,9 +9,8 @@
 // depth change grow with depth, (z_i - z_j)' = tz (1 + o (z_i + z_j) / bf): o is observable wherever
 // the camera moves along its optical axis past points at different depths (KITTI: a forward camera),
 // and not from a nadir camera moving sideways over flat ground (then the estimate is rejected).
-// Used as a diagnostic (StereoSlam reports it, slam_bench prints it): on the KITTI clip the whole
-// map gives the LiDAR check's 0.26 px, but estimates over shorter windows scatter beyond their
-// standard error (unmodelled per-frame errors), so it is not applied to the depths.
+// Used as a diagnostic (StereoSlam reports it, slam_bench prints it): estimates over shorter windows
+// scatter beyond their standard error (unmodelled per-frame errors), so it is not applied to the depths.
 
 #include <vector>
 

@@ -112,8 +112,8 @@ int StereoSlam::Impl::CreateNewMapPoints(int kf) {
     tx << 0, -t21.z(), t21.y(), t21.z(), 0, -t21.x(), -t21.y(), t21.x(), 0;
     const Eigen::Matrix3d F21 = Kinv.transpose() * tx * R21 * Kinv;  // x2^T F21 x1 = 0
     // Unmatched features of k2 in a grid of cells per pyramid level (a match is searched on levels
-    // +-1 only): only the cells the epipolar band crosses are scanned, not every feature of k2 (KITTI
-    // clip: 4.6 instead of 7.4 ms CPU per frame). The pick does not depend on the scan order.
+    // +-1 only): only the cells the epipolar band crosses are scanned, not every feature of k2. The
+    // pick does not depend on the scan order.
     EpipolarGrid grid2(cam.width, cam.height, pyr.levels());
     for (size_t j = 0; j < k2.features.size(); ++j)
       if (k2.points[j] < 0) grid2.Add(k2.features.keypoints[j], static_cast<int>(j));

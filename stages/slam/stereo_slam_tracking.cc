@@ -19,7 +19,7 @@ namespace rs {
 // ORB-SLAM2 trusts stereo depths below close_depth_baselines and makes at least the 100 nearest
 // points per keyframe. A nadir view from altitude has every point beyond that (25 m over a 0.3 m
 // baseline is 83 baselines), all at about one depth and so of about one precision: 100 points per
-// keyframe could not follow 24 px of image motion per frame (drone-high lost tracking four times).
+// keyframe cannot follow fast image motion.
 // So when fewer than those 100 features are close, the nearest min_close_points count as close. A
 // view with a near field (KITTI: hundreds of close points) keeps the plain rule.
 double StereoSlam::Impl::CloseDepthLimit(const StereoFeatures& f) const {
