@@ -16,6 +16,7 @@
 #include "cli/command.h"
 #include "cli/tool_util.h"
 #include "formats/input_error.h"
+#include "formats/rectified_stereo.h"
 #include "formats/stereo/calibration_yaml.h"
 #include "formats/stereo/image_io.h"
 #include "formats/stereo/rectifier.h"
@@ -25,15 +26,11 @@
 namespace rs {
 namespace {
 
-/// Rectified geometry of the left camera: Z = f B / d, X = (u - cx) Z / f, Y = (v - cy) Z / f.
-struct PinholeStereo {
-  double f_px = 0, cx_px = 0, cy_px = 0, baseline_m = 0;
-};
-
 /// Binary little-endian PLY of every valid pixel in the left camera frame (x right, y down,
-/// z forward, metres), coloured by the left grey value. Returns the number of points.
+/// z forward, metres), coloured by the left grey value: Z = f B / d, X = (u - cx) Z / f,
+/// Y = (v - cy) Z / f. Returns the number of points.
 int64_t WriteCloudPly(const std::string& path, const cv::Mat& disparity, const cv::Mat& valid, const cv::Mat& gray,
-                      const PinholeStereo& g) {
+                      const RectifiedStereo& g) {
   int64_t n = 0;
   for (int v = 0; v < disparity.rows; ++v)
     for (int u = 0; u < disparity.cols; ++u) n += valid.at<uint8_t>(v, u) && disparity.at<float>(v, u) > 0;
@@ -134,7 +131,7 @@ Command StereoCommand() {
                 throw InputError(InputLocation::File(a->right),
                                  fmt::format("size {}x{} differs from the left image's {}x{}", right.cols, right.rows,
                                              left.cols, left.rows));
-              std::optional<PinholeStereo> geometry;
+              std::optional<RectifiedStereo> geometry;
               if (!a->calibration.empty()) {
                 const StereoCalibration raw = ReadCalibrationYaml(std::filesystem::path(a->calibration));
                 if (raw.left.width != left.cols || raw.left.height != left.rows)
@@ -149,10 +146,12 @@ Command StereoCommand() {
                   fmt::print("rectified the pair with {} (outputs are in the rectified left view)\n", a->calibration);
                 }
                 const StereoCalibration& rect = rectifier.rectified();
-                geometry = PinholeStereo{rect.left.fx, rect.left.cx, rect.left.cy, rect.BaselineM()};
+                geometry = RectifiedStereoOf(rect);
               } else if (a->focal) {
-                geometry = PinholeStereo{*a->focal, a->cx.value_or((left.cols - 1) / 2.0),
-                                         a->cy.value_or((left.rows - 1) / 2.0), *a->baseline};
+                geometry = RectifiedStereo{.f_px = *a->focal,
+                                           .cx_px = a->cx.value_or((left.cols - 1) / 2.0),
+                                           .cy_px = a->cy.value_or((left.rows - 1) / 2.0),
+                                           .baseline_m = *a->baseline};
               }
               if (!a->cloud.empty() && !geometry)
                 throw OptionError("--cloud needs metric geometry: give --calibration or --focal and --baseline");

@@ -15,6 +15,7 @@
 #include <opencv2/core.hpp>
 #include <zlib.h>
 
+#include "formats/rectified_stereo.h"
 #include "formats/stereo/image_io.h"
 #include "formats/stereo/rectifier.h"
 #include "formats/stereo/stereo_source.h"
@@ -53,7 +54,7 @@ double PathLength(const PosePairs& pairs) {
 
 // Level-0 reprojection residuals of every live map point in every keyframe observing it.
 void MeasureResiduals(const StereoCalibration& calib, SlamRunReport* rep) {
-  const double fx = calib.left.fx, fy = calib.left.fy, cx = calib.left.cx, cy = calib.left.cy, b = calib.BaselineM();
+  const RectifiedStereo cam = RectifiedStereoOf(calib);
   std::vector<double> uv, ur;
   const SlamMap& m = rep->result.map;
   for (const MapPoint& p : m.points) {
@@ -64,9 +65,9 @@ void MeasureResiduals(const StereoCalibration& calib, SlamRunReport* rep) {
       if (kf.bad || kp.octave != 0) continue;
       const Eigen::Vector3d pc = kf.T_cam_world * p.p_world;
       if (pc.z() <= 0) continue;
-      const double u = fx * pc.x() / pc.z() + cx, v = fy * pc.y() / pc.z() + cy;
+      const double u = cam.f_px * pc.x() / pc.z() + cam.cx_px, v = cam.f_px * pc.y() / pc.z() + cam.cy_px;
       uv.push_back(std::hypot(kp.pt.x - u, kp.pt.y - v));
-      if (kf.features.u_right[f] >= 0) ur.push_back(std::abs(kf.features.u_right[f] - (u - fx * b / pc.z())));
+      if (kf.features.u_right[f] >= 0) ur.push_back(std::abs(kf.features.u_right[f] - (u - cam.f_px * cam.baseline_m / pc.z())));
     }
   }
   auto quantile = [](std::vector<double> v, double q) {
@@ -184,14 +185,7 @@ LidarDisparityCheck CheckDisparityAgainstLidar(const std::filesystem::path& driv
   const StereoSource source = OpenStereoSource(drive, "kitti-raw");
   if (!source.calibration()) throw std::runtime_error(drive.string() + ": no calibration");
   const StereoCalibration& c = *source.calibration();
-  StereoCamera cam;
-  cam.fx = c.left.fx;
-  cam.fy = c.left.fy;
-  cam.cx = c.left.cx;
-  cam.cy = c.left.cy;
-  cam.baseline_m = c.BaselineM();
-  cam.width = c.left.width;
-  cam.height = c.left.height;
+  const RectifiedStereo cam = RectifiedStereoOf(c);
   const ScalePyramid pyr(options.pyramid_levels, options.scale_factor);
   std::vector<double> deficit, ratio;
   for (const StereoFrame& fr : source.frames()) {

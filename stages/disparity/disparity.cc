@@ -384,8 +384,7 @@ __attribute__((noinline)) void RefineTerms(const int16_t* __restrict L, const in
     const int e = L[u] - Tk[u];
     const int g2 = g * g;
     // The pixel's step is 24 e G / G^2; one beyond 1 px means SGM's winner there is off by a
-    // pixel or more (the inside edge of a painted line, an occlusion), and the pixel is left out
-    // (measured: slightly better than clamping its step to 1 px).
+    // pixel or more (the inside edge of a painted line, an occlusion), and the pixel is left out.
     const int eg = 24 * e * g;
     // A 0/1 weight in int lanes and a multiply, not a branch or a bool: the loop vectorises.
     const int ok = static_cast<int>(m[u]) * static_cast<int>(eg <= g2) * static_cast<int>(eg >= -g2);
@@ -665,25 +664,22 @@ void RefineSubpixel(const cv::Mat& ref, const cv::Mat& target, cv::Mat* disparit
   }
   // Texture the small window needs: a mean squared slope of 4 (2 grey levels per px; G = 24 x
   // slope). Below it (inside a painted line, a shadow's flat core) the intensities say little at
-  // this size and SGM's value stays (lower gates here made false potholes on the obstacles preset).
+  // this size and SGM's value stays.
   constexpr float kMinMeanWeight = 4.0f * 24.0f * 24.0f;
   // The smooth window is gated on its own precision instead: its least-squares shift has a
   // standard deviation of 24 sigma_e / sqrt(sum G^2) (sigma_e: the residual's noise, ~0.5 grey
-  // levels after the pre-smoothing), so sum G^2 >= 20000 keeps it below ~0.1 px. A mean-slope gate
-  // scaled by the window's area left the car view's far road (mean squared slope 0.3-2: only the
-  // 35 mm texture octave survives the renderer's prefilter beyond ~4 m) to SGM's values, whose
-  // 4-path aggregation streaks showed as a plaid of horizontal and vertical stripes in the depth.
+  // levels after the pre-smoothing), so sum G^2 >= 20000 keeps it below ~0.1 px; a mean-slope gate
+  // would leave weakly textured far road to SGM's values and their aggregation streaks.
   constexpr float kSmoothMinWeight = 20000.0f;
   // Agreement the smooth value needs with the small window's (AgreeRow): smooth_agree_px, or where
   // larger ~5 standard deviations of the small window's own estimate (24 x 0.5 x 5 / sqrt(sum G^2)
-  // = kAgreeScale / sqrt(sum G^2); 40 gave a noisier car road, 80-160 blurred pothole walls more): on
-  // weak texture the small window's value is noise, and a fixed 0.2 px rejected the smooth value
-  // over most of the far road (car road EPE at 4.5-6 m 0.13 -> 0.10 px).
+  // = kAgreeScale / sqrt(sum G^2)): on weak texture the small window's value is noise, and a fixed
+  // tolerance would reject the smooth value over most of the far road.
   auto min_weight = [](int w) { return kMinMeanWeight * static_cast<float>(w * w); };
   const bool smooth = o.smooth_window > o.window, edges = smooth && o.max_edge_coherence < 1;
   // High-pass both images (minus a local mean): the cameras' gain and vignetting differ, and an
   // intensity offset between the views biases an intensity residual (the census SGM ran on is
-  // immune to it, this least-squares step is not: without it the refinement was worse than SGM).
+  // immune to it, this least-squares step is not).
   thread_local cv::Mat tls_ref_hp, tls_target_hp;  // reused across frames (page faults)
   cv::Mat &ref_hp = tls_ref_hp, &target_hp = tls_target_hp;
   thread_local cv::Mat tls_edge;
@@ -703,15 +699,13 @@ void RefineSubpixel(const cv::Mat& ref, const cv::Mat& target, cv::Mat* disparit
   }
   // One straight, mostly vertical edge dominating the small window (a hard shadow, a paint edge):
   // the match rests on where each camera's pixel grid cut that edge, an error that varies slowly
-  // along it (±0.5 px in 40-row waves along a car's shadow on the simulator's obstacles preset)
-  // instead of averaging out over texture. Such pixels give no terms to the smooth window, and
+  // along it instead of averaging out over texture. Such pixels give no terms to the smooth window, and
   // take its value: the texture around them.
   if (edges) cv::bitwise_and(valid, ~edge, terms);
   // Shiftable smooth windows: where the centred 21x21 window straddles a pothole's wall (within
   // 10 px of it) a window beside the pixel replaces it, its value checked against the small
-  // window's. The small window stays centred: shifting it too (checked against SGM's value) cost as
-  // much again (+3 ms CPU per 1280x720 pair) without a better result downstream
-  // (docs/stages/disparity.md, "Pothole walls: shiftable refinement windows").
+  // window's. The small window stays centred (docs/stages/disparity.md, "Pothole walls: shiftable
+  // refinement windows").
   thread_local RefineFit tls_fit;
   const bool shift = o.shift_ratio > 0;
   RefinePass(ref_hp, target_hp, sgm_in, &smoothed, valid, edges ? terms : valid, o.smooth_window, kSmoothMinWeight, nullptr, 0,
@@ -747,8 +741,7 @@ void RefineSubpixel(const cv::Mat& ref, const cv::Mat& target, cv::Mat* disparit
 }
 
 // Fewer rows leave the least-squares step too noisy at the far end of an oblique view's analysed
-// range: with 3 (the car's ground square at 5-7 m), two fragments of potholes at 7.1-7.2 m became
-// false detections on the car preset (seed 1, precision 1.0 -> 0.905); with 5 one.
+// range (fragments of far potholes turn into false detections).
 constexpr int kMinGroundWindowRows = 5;
 
 std::vector<int> GroundWindowRows(const RoadModel& road, int width, int height, double focal_px, int window) {
@@ -799,107 +792,152 @@ int64_t FillSmallHoles(cv::Mat* disparity, cv::Mat* valid, int min_neighbours, d
   return count;
 }
 
-DisparityResult ComputeDisparity(const cv::Mat& left, const cv::Mat& right, const DisparityParams& P,
-                                 const RoadModel* prior) {
-  const auto t_start = std::chrono::steady_clock::now();
-  P.Check();
-  if (left.empty() || left.type() != CV_8UC1 || right.type() != CV_8UC1 || left.size() != right.size())
-    throw std::invalid_argument("disparity: inputs must be non-empty CV_8UC1 images of equal size");
-  const int W = left.cols, H = left.rows;
-  DisparityResult res;
-  auto t0 = std::chrono::steady_clock::now();
+namespace {
 
-  bool gpt = P.method == DisparityMethod::kGptSgm;
-  if (gpt) {
-    RoadFitOptions o = P.road;
-    o.max_disparity_px = std::min(o.max_disparity_px, double(P.min_disparity + P.num_disparities));
-    const auto samples = MatchSparseDisparities(left, right, o);
-    res.road = FitRoadModel(samples, W, H, o, prior);
-    res.timings.road_model_ms = MsSince(t0);
-    if (!res.road.reliable) gpt = false, res.fell_back = true;
-  }
-
+// SGM's result and what the steps after it read.
+struct SgmRun {
   SgmOutput sgm;
-  std::vector<double> kappa;
-  cv::Mat ref_s, target_s;  // the images SGM compared (the sub-pixel refinement reads them)
+  std::vector<double> kappa;  // GPT-SGM: each row's road shift (ComputeGptShift)
+  cv::Mat ref_s, target_s;    // the images SGM compared (the sub-pixel refinement reads them)
   // Largest SGM value that may take the smooth refinement window: 1 px above the road's residual
   // (after the per-pixel warp the road is at delta, else within [delta, delta + span]).
   double smooth_max_px = 0;
-  if (gpt) {
-    t0 = std::chrono::steady_clock::now();
-    kappa = ComputeGptShift(res.road, W, H, P.gpt_delta_px);
-    double span = 0;  // largest road residual above the row minimum
-    for (int v = 0; v < H; ++v) span = std::max(span, std::max(res.road.At(0, v), res.road.At(W - 1, v)) - res.road.RowMin(v, W));
-    int num_d = P.gpt_num_disparities;
-    if (P.gpt_expand_range) num_d = std::max(num_d, static_cast<int>(std::ceil(P.gpt_delta_px + span + P.gpt_headroom_px)));
-    num_d = std::min(num_d, 1024);
-    res.num_disparities = num_d;
-    SgmParams sp = P.ToSgm(0, num_d);
-    cv::Mat target = right;
-    smooth_max_px = P.gpt_delta_px + (P.gpt_subpixel_warp && P.gpt_pixel_warp ? 0.0 : span) + 1.0;
-    if (P.gpt_subpixel_warp && P.gpt_pixel_warp) {
-      target = WarpTargetPerPixel(right, res.road, P.gpt_delta_px);
-    } else if (P.gpt_subpixel_warp) {
-      target = WarpTarget(right, kappa);
-    } else {
-      sp.row_offset.resize(H);
-      for (int v = 0; v < H; ++v) sp.row_offset[v] = static_cast<int>(std::floor(kappa[v]));
-    }
-    ref_s = Presmooth(left, P.presmooth_sigma_px), target_s = Presmooth(target, P.presmooth_sigma_px);
-    res.timings.warp_ms = MsSince(t0);
-    sgm = ComputeSgm(ref_s, target_s, sp);
-    res.method_used = DisparityMethod::kGptSgm;
-  } else {
-    res.num_disparities = P.num_disparities;
-    t0 = std::chrono::steady_clock::now();
-    ref_s = Presmooth(left, P.presmooth_sigma_px), target_s = Presmooth(right, P.presmooth_sigma_px);
-    res.timings.warp_ms = MsSince(t0);
-    sgm = ComputeSgm(ref_s, target_s, P.ToSgm(P.min_disparity, P.num_disparities));
-    res.method_used = DisparityMethod::kSgm;
-  }
-  res.timings.census_ms = sgm.census_ms;
-  res.timings.aggregation_ms = sgm.aggregation_ms;
-  res.timings.wta_ms = sgm.wta_ms;
+};
 
-  t0 = std::chrono::steady_clock::now();
+// GPT-SGM's road model from sparse matches; false (and fell_back) when it is unreliable.
+bool FitGptRoad(const cv::Mat& left, const cv::Mat& right, const DisparityParams& P, const RoadModel* prior,
+                DisparityResult* out) {
+  DisparityResult& res = *out;
+  const int W = left.cols, H = left.rows;
+  const auto t0 = std::chrono::steady_clock::now();
+  RoadFitOptions o = P.road;
+  o.max_disparity_px = std::min(o.max_disparity_px, double(P.min_disparity + P.num_disparities));
+  const auto samples = MatchSparseDisparities(left, right, o);
+  res.road = FitRoadModel(samples, W, H, o, prior);
+  res.timings.road_model_ms = MsSince(t0);
+  if (!res.road.reliable) {
+    res.fell_back = true;
+    return false;
+  }
+  return true;
+}
+
+// GPT-SGM: the target warped by the road model (or its rows shifted inside SGM), then SGM over
+// the residual range, widened where the road's span along a row needs it.
+SgmRun RunGptSgm(const cv::Mat& left, const cv::Mat& right, const DisparityParams& P, DisparityResult* out) {
+  DisparityResult& res = *out;
+  const int W = left.cols, H = left.rows;
+  SgmRun run;
+  const auto t0 = std::chrono::steady_clock::now();
+  run.kappa = ComputeGptShift(res.road, W, H, P.gpt_delta_px);
+  const std::vector<double>& kappa = run.kappa;
+  double span = 0;  // largest road residual above the row minimum
+  for (int v = 0; v < H; ++v) span = std::max(span, std::max(res.road.At(0, v), res.road.At(W - 1, v)) - res.road.RowMin(v, W));
+  int num_d = P.gpt_num_disparities;
+  if (P.gpt_expand_range) num_d = std::max(num_d, static_cast<int>(std::ceil(P.gpt_delta_px + span + P.gpt_headroom_px)));
+  num_d = std::min(num_d, 1024);
+  res.num_disparities = num_d;
+  SgmParams sp = P.ToSgm(0, num_d);
+  cv::Mat target = right;
+  run.smooth_max_px = P.gpt_delta_px + (P.gpt_subpixel_warp && P.gpt_pixel_warp ? 0.0 : span) + 1.0;
+  if (P.gpt_subpixel_warp && P.gpt_pixel_warp) {
+    target = WarpTargetPerPixel(right, res.road, P.gpt_delta_px);
+  } else if (P.gpt_subpixel_warp) {
+    target = WarpTarget(right, kappa);
+  } else {
+    sp.row_offset.resize(H);
+    for (int v = 0; v < H; ++v) sp.row_offset[v] = static_cast<int>(std::floor(kappa[v]));
+  }
+  run.ref_s = Presmooth(left, P.presmooth_sigma_px), run.target_s = Presmooth(target, P.presmooth_sigma_px);
+  res.timings.warp_ms = MsSince(t0);
+  run.sgm = ComputeSgm(run.ref_s, run.target_s, sp);
+  res.method_used = DisparityMethod::kGptSgm;
+  return run;
+}
+
+// Plain SGM over [min_disparity, min_disparity + num_disparities).
+SgmRun RunPlainSgm(const cv::Mat& left, const cv::Mat& right, const DisparityParams& P, DisparityResult* out) {
+  DisparityResult& res = *out;
+  SgmRun run;
+  res.num_disparities = P.num_disparities;
+  const auto t0 = std::chrono::steady_clock::now();
+  run.ref_s = Presmooth(left, P.presmooth_sigma_px), run.target_s = Presmooth(right, P.presmooth_sigma_px);
+  res.timings.warp_ms = MsSince(t0);
+  run.sgm = ComputeSgm(run.ref_s, run.target_s, P.ToSgm(P.min_disparity, P.num_disparities));
+  res.method_used = DisparityMethod::kSgm;
+  return run;
+}
+
+// Sub-pixel refinement, speckle filter, median and small-hole filling of SGM's result, in place.
+// With GPT-SGM's smooth window, `sharp_l` receives the small window's value alone
+// (DisparityResult::disparity_sharp); returns whether it did.
+bool RefineAndClean(const DisparityParams& P, bool gpt, const RoadModel& road, SgmRun* run, cv::Mat* sharp_l) {
+  SgmOutput& sgm = run->sgm;
+  const int W = sgm.disparity.cols, H = sgm.disparity.rows;
   SubpixelRefineOptions refine;
   refine.window = P.refine_window;
   refine.max_edge_coherence = P.refine_max_coherence;
   refine.highpass = P.refine_highpass_px;
   refine.shift_ratio = P.refine_shift_ratio;
-  if (gpt && P.refine_ground_window) refine.window_rows = GroundWindowRows(res.road, W, H, P.camera_focal_px, P.refine_window);
+  if (gpt && P.refine_ground_window) refine.window_rows = GroundWindowRows(road, W, H, P.camera_focal_px, P.refine_window);
   if (gpt) refine.smooth_window = P.refine_smooth_window, refine.smooth_agree_px = P.refine_smooth_agree_px,
-           refine.smooth_max_px = smooth_max_px;
-  // The small window's value alone as a second image (DisparityResult::disparity_sharp), where
-  // the smooth window ran.
+           refine.smooth_max_px = run->smooth_max_px;
   const bool sharp = gpt && refine.window > 0 && refine.smooth_window > refine.window;
-  cv::Mat sharp_l;
-  RefineSubpixel(ref_s, target_s, &sgm.disparity, sgm.valid, refine, sharp ? &sharp_l : nullptr);
+  RefineSubpixel(run->ref_s, run->target_s, &sgm.disparity, sgm.valid, refine, sharp ? sharp_l : nullptr);
   FilterSpeckles(&sgm.disparity, &sgm.valid, P.speckle_window_size, P.speckle_max_diff_px);
   // The sharp image takes the post-processing's validity: NaN where a speckle went (the median
   // reads valid neighbours only), the smooth image's value where a small hole is filled.
-  if (sharp) sharp_l.setTo(std::numeric_limits<float>::quiet_NaN(), sgm.valid == 0);
+  if (sharp) sharp_l->setTo(std::numeric_limits<float>::quiet_NaN(), sgm.valid == 0);
   if (P.median) {
-    if (sharp) MedianValid3x3(&sharp_l, sgm.valid);
+    if (sharp) MedianValid3x3(sharp_l, sgm.valid);
     MedianValid3x3(&sgm.disparity, sgm.valid);
   }
   FillSmallHoles(&sgm.disparity, &sgm.valid, P.fill_min_neighbours, P.speckle_max_diff_px);
-  res.timings.postprocess_ms = MsSince(t0);
+  return sharp;
+}
 
-  t0 = std::chrono::steady_clock::now();
-  res.valid = sgm.valid;
+// Per-row counts of the final pass: textured pixels whose road point is visible in the right
+// view (and how many of them are valid) for the fall-back rule, valid pixels for the density.
+struct RowCounts {
+  std::vector<int64_t> visible, visible_valid, valid;
+};
+
+// Textured pixels of row v (1 <= v < H - 1) whose road point is visible: the road point
+// u - road(u, v) lies inside the right image, the road is in front of the camera there
+// (road(u, v) >= 1 px: rows above a forward view's horizon do not count), and the left image has
+// texture to match (central-difference gradient |dI/du| + |dI/dv| >= kTexture: the untextured
+// side of a parked car or the sky would otherwise count against a correct road model).
+void CountVisibleRow(const cv::Mat& left, const RoadModel& road, const uint8_t* m, int W, int v, int64_t* visible,
+                     int64_t* visible_valid) {
+  constexpr int kTexture = 8;
+  const uint8_t *lm = left.ptr<uint8_t>(v), *lu = left.ptr<uint8_t>(v - 1), *ld = left.ptr<uint8_t>(v + 1);
+  const double x_min = road.At(0, v), slope = road.At(1, v) - x_min;
+  int64_t vis = 0, vis_valid = 0;
+  for (int u = 1; u + 1 < W; ++u) {
+    const double road_d = road.quadratic ? road.At(u, v) : x_min + slope * u;
+    if (!(road_d >= 1.0 && u - road_d >= 0)) continue;
+    if (std::abs(lm[u + 1] - lm[u - 1]) + std::abs(ld[u] - lu[u]) < kTexture) continue;
+    ++vis, vis_valid += m[u] != 0;
+  }
+  *visible = vis, *visible_valid = vis_valid;
+}
+
+// One parallel pass over res.disparity / res.valid (SGM's, post-processed): true disparity
+// (d = l + kappa after a sub-pixel warp), a match outside the target image dropped (after a warp
+// the replicated border can still "match"; plain SGM already rejects them), the transformed
+// disparity (GPT-SGM) and the per-row counts. `sharp_l` (optional) follows the same steps.
+RowCounts TrueDisparityRows(const cv::Mat& left, const DisparityParams& P, bool gpt, const std::vector<double>& kappa,
+                            cv::Mat* sharp_l, DisparityResult* out) {
+  DisparityResult& res = *out;
+  const int W = left.cols, H = left.rows;
+  const bool sharp = sharp_l != nullptr;
   const bool warped = gpt && P.gpt_subpixel_warp;
-  res.disparity = sgm.disparity;  // after a warp, converted in place below (no fresh 4 MB per frame)
-  if (gpt) res.transformed.create(H, W, CV_32F);  // the road model is known (reliable): fused below
-  // One parallel pass: true disparity (d = l + kappa after a sub-pixel warp), a match outside
-  // the target image dropped (after a warp the replicated border can still "match"; plain SGM
-  // already rejects them), and per-row counts for the fall-back rule and the density.
   std::vector<int64_t> row_visible(H, 0), row_visible_valid(H, 0), row_valid(H, 0);
   tbb::parallel_for(tbb::blocked_range<int>(0, H, 16), [&](const tbb::blocked_range<int>& r) {
     for (int v = r.begin(); v < r.end(); ++v) {
       float* d = res.disparity.ptr<float>(v);
       uint8_t* m = res.valid.ptr<uint8_t>(v);
-      float* ds = sharp ? sharp_l.ptr<float>(v) : nullptr;
+      float* ds = sharp ? sharp_l->ptr<float>(v) : nullptr;
       if (ds)  // filled holes: the smooth image's value
         for (int u = 0; u < W; ++u) ds[u] = m[u] && std::isnan(ds[u]) ? d[u] : ds[u];
       if (warped && P.gpt_pixel_warp) {
@@ -919,28 +957,43 @@ DisparityResult ComputeDisparity(const cv::Mat& left, const cv::Mat& right, cons
       if (!gpt) continue;
       TransformedDisparityRow(d, m, W, v, res.road, P.gpt_delta_px, res.transformed.ptr<float>(v));
       if (P.gpt_min_valid_fraction <= 0) continue;
-      // Counted: the road point u - road(u, v) lies inside the right image, the road is in front
-      // of the camera there (road(u, v) >= 1 px: rows above a forward view's horizon do not
-      // count), and the left image has texture to match (central-difference gradient
-      // |dI/du| + |dI/dv| >= kTexture: the untextured side of a parked car or the sky would
-      // otherwise count against a correct road model).
       // Every 4th row is enough for a share (and keeps this pass cheap).
       if (v == 0 || v == H - 1 || v % 4 != 0) continue;
-      constexpr int kTexture = 8;
-      const uint8_t *lm = left.ptr<uint8_t>(v), *lu = left.ptr<uint8_t>(v - 1), *ld = left.ptr<uint8_t>(v + 1);
-      const double x_min = res.road.At(0, v), slope = res.road.At(1, v) - x_min;
-      int64_t vis = 0, vis_valid = 0;
-      for (int u = 1; u + 1 < W; ++u) {
-        const double road_d = res.road.quadratic ? res.road.At(u, v) : x_min + slope * u;
-        if (!(road_d >= 1.0 && u - road_d >= 0)) continue;
-        if (std::abs(lm[u + 1] - lm[u - 1]) + std::abs(ld[u] - lu[u]) < kTexture) continue;
-        ++vis, vis_valid += m[u] != 0;
-      }
-      row_visible[v] = vis, row_visible_valid[v] = vis_valid;
+      CountVisibleRow(left, res.road, m, W, v, &row_visible[v], &row_visible_valid[v]);
     }
   });
+  return {std::move(row_visible), std::move(row_visible_valid), std::move(row_valid)};
+}
+
+}  // namespace
+
+DisparityResult ComputeDisparity(const cv::Mat& left, const cv::Mat& right, const DisparityParams& P,
+                                 const RoadModel* prior) {
+  const auto t_start = std::chrono::steady_clock::now();
+  P.Check();
+  if (left.empty() || left.type() != CV_8UC1 || right.type() != CV_8UC1 || left.size() != right.size())
+    throw std::invalid_argument("disparity: inputs must be non-empty CV_8UC1 images of equal size");
+  const int W = left.cols, H = left.rows;
+  DisparityResult res;
+
+  const bool gpt = P.method == DisparityMethod::kGptSgm && FitGptRoad(left, right, P, prior, &res);
+  SgmRun run = gpt ? RunGptSgm(left, right, P, &res) : RunPlainSgm(left, right, P, &res);
+  res.timings.census_ms = run.sgm.census_ms;
+  res.timings.aggregation_ms = run.sgm.aggregation_ms;
+  res.timings.wta_ms = run.sgm.wta_ms;
+
+  auto t0 = std::chrono::steady_clock::now();
+  cv::Mat sharp_l;
+  const bool sharp = RefineAndClean(P, gpt, res.road, &run, &sharp_l);
+  res.timings.postprocess_ms = MsSince(t0);
+
+  t0 = std::chrono::steady_clock::now();
+  res.valid = run.sgm.valid;
+  res.disparity = run.sgm.disparity;  // after a warp, converted in place below (no fresh 4 MB per frame)
+  if (gpt) res.transformed.create(H, W, CV_32F);  // the road model is known (reliable): fused below
+  const RowCounts rows = TrueDisparityRows(left, P, gpt, run.kappa, sharp ? &sharp_l : nullptr, &res);
   int64_t visible = 0, visible_valid = 0, num_valid = 0;
-  for (int v = 0; v < H; ++v) visible += row_visible[v], visible_valid += row_visible_valid[v], num_valid += row_valid[v];
+  for (int v = 0; v < H; ++v) visible += rows.visible[v], visible_valid += rows.visible_valid[v], num_valid += rows.valid[v];
   if (gpt && P.gpt_min_valid_fraction > 0) {
     if (visible == 0 || visible_valid < P.gpt_min_valid_fraction * visible) {
       DisparityParams plain = P;

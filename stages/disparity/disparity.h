@@ -22,8 +22,7 @@ struct DisparityParams {
   int num_disparities = 128;  ///< plain SGM (and GPT fallback): number of disparities, 1..1024
 
  /// Gaussian blur of both images before the census, px (0 = off): lifts the census above sensor
-  /// noise on weakly textured, far road (simulated road surveys: road D1 1.3 % -> 0.03 % nadir,
-  /// 8 % -> 0.9 % forward-looking; docs/stages/disparity.md).
+  /// noise on weakly textured, far road (docs/stages/disparity.md).
   double presmooth_sigma_px = 1.0;
   int census_width = 9;    ///< census window width, odd; width*height <= 65
   int census_height = 7;   ///< census window height, odd
@@ -36,7 +35,7 @@ struct DisparityParams {
   int p2_gradient_scale = 16;  ///< g in the adaptive P2, grey levels
   int uniqueness_ratio = 5;    ///< percent margin the best cost needs over non-neighbouring ones
   SubpixelMode subpixel = SubpixelMode::kEquiangular;  ///< sub-pixel refinement
-  int lr_max_diff = 2;         ///< left-right consistency tolerance, px; < 0 disables (1 drops ~1 % of textured road)
+  int lr_max_diff = 2;         ///< left-right consistency tolerance, px; < 0 disables
   int speckle_window_size = 100;     ///< drop 4-connected regions (|step| <= speckle_max_diff_px) smaller than this; 0 = off
   double speckle_max_diff_px = 1.0;  ///< disparity step allowed inside a speckle region, px
   bool median = true;                ///< 3x3 median over valid neighbours (invalid pixels stay invalid)
@@ -45,27 +44,24 @@ struct DisparityParams {
   /// uniqueness or left-right check on textured surfaces); 0 = off. Larger holes stay invalid.
   int fill_min_neighbours = 6;
   /// Intensity sub-pixel refinement (RefineSubpixel) over refine_window x refine_window pixels,
-  /// odd; 0 = off (SGM's cost-curve sub-pixel stays). Removes SGM's pixel locking: road EPE
-  /// 0.128 -> 0.061 px on drone-low, the damage stage's road fit 6.4 -> 0.5 mm.
+  /// odd; 0 = off (SGM's cost-curve sub-pixel stays). Removes SGM's pixel locking.
   int refine_window = 9;
   /// GPT-SGM: a second refinement over this larger window (odd, <= 63; 0 = off), taken where it
   /// agrees with refine_window's value within refine_smooth_agree_px and the surface is at most
-  /// 1 px above the road model: matching noise grows to ~0.04 px (median, after a 7x7 mean) where
-  /// the true disparity is half-way between integers (the views sample the texture at different
-  /// phases), which hid a 1.2 m x 28 mm pothole (0.5 px) at 4 m; the 21-px window halves it.
+  /// 1 px above the road model: matching noise peaks where the true disparity is half-way between
+  /// integers (the views sample the texture at different phases), and a larger window averages it.
   int refine_smooth_window = 21;
   double refine_smooth_agree_px = 0.2;  ///< largest difference to refine_window's value where the smooth window is taken, px
   /// With refine_smooth_window: pixels whose refine_window window is dominated by one straight,
   /// mostly vertical edge (structure-tensor coherence above this; ~0.3 on texture) give no terms to
   /// the smooth window and take its value: a hard shadow or paint edge is matched where each
-  /// camera's pixel grid cut it, an error that does not average out along the edge (±0.5 px waves
-  /// along a car's shadow on the obstacles preset). 1 = off.
+  /// camera's pixel grid cut it, an error that does not average out along the edge. 1 = off.
   double refine_max_coherence = 0.7;
   /// Box of the local mean the refinement subtracts from both images (odd, >= 3): the views'
   /// gain and vignetting differ. Next to a strong step (a paint or shadow edge) the subtracted
   /// mean makes a ramp reaching refine_highpass_px / 2 from the edge, where the match then rests
-  /// on the edge's position in each view's pixel grid (the simulator's aliased edges: up to
-  /// +-0.5 px); a small box keeps the ramp inside the edge band refine_max_coherence handles.
+  /// on the edge's position in each view's pixel grid; a small box keeps the ramp inside the edge
+  /// band refine_max_coherence handles.
   int refine_highpass_px = 9;
   /// Shiftable smooth windows (refine_smooth_window): where a pixel's centred window fits its
   /// pixels' disparities this many times worse (G^2-weighted spread) than the best of the 8
@@ -126,8 +122,8 @@ struct DisparityResult {
   cv::Mat valid;        ///< CV_8U, 255 where disparity is valid
   /// GPT-SGM with refine_smooth_window: the true disparity of the refine_window pass alone (before
   /// the smooth window's value is taken; same post-processing, same validity as `disparity`).
-  /// Noisier on the road, but a pothole's wall stays where it is: the 21x21 window spreads a
-  /// sloping wall's depth 5-8 px onto the road and makes the floor beside it shallower
+  /// Noisier on the road, but a pothole's wall stays where it is: the smooth window spreads a
+  /// sloping wall's depth onto the road and makes the floor beside it shallower
   /// (docs/stages/disparity.md, "Two images"). Empty when no smooth window ran (equal to `disparity`).
   cv::Mat disparity_sharp;
   RoadModel road;       ///< road model used (GPT) or fitted to the dense result (SGM)

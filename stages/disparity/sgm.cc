@@ -73,40 +73,31 @@ void SgmParams::Check(int image_height) const {
 
 using namespace sgm_detail;  // the internal SGM types and kernels (sgm_*.h)
 
-SgmOutput ComputeSgm(const cv::Mat& left_gray8, const cv::Mat& right_gray8, const SgmParams& P) {
-  if (left_gray8.type() != CV_8UC1 || right_gray8.type() != CV_8UC1 || left_gray8.size() != right_gray8.size() ||
-      left_gray8.empty())
-    throw std::invalid_argument("sgm: inputs must be non-empty CV_8UC1 images of equal size");
-  P.Check(left_gray8.rows);
-  const cv::Mat L = left_gray8.isContinuous() ? left_gray8 : left_gray8.clone();
-  const cv::Mat R = right_gray8.isContinuous() ? right_gray8 : right_gray8.clone();
-  const int W = L.cols, H = L.rows, D = P.num_disparities, Dp = (D + kLanes - 1) / kLanes * kLanes, nchunks = Dp / kLanes;
-  auto offset = [&](int v) { return P.min_disparity + (P.row_offset.empty() ? 0 : P.row_offset[v]); };
-  SgmOutput out;
+namespace {
 
-  auto t0 = std::chrono::steady_clock::now();
-  // Scratch kept per calling thread (named references so TBB workers see the caller's).
-  thread_local std::vector<uint64_t> tls_cl, tls_cr;
-  std::vector<uint64_t>& cl = tls_cl;
-  std::vector<uint64_t>& cr = tls_cr;
-  cl.resize(L.total()), cr.resize(R.total());
-  thread_local cv::Mat tls_padded_l, tls_padded_r;
-  CensusPlan census_l, census_r;  // the codes themselves are computed per token in pass 1
-  census_l.Prepare(L, P.census_width, P.census_height, &tls_padded_l);
-  census_r.Prepare(R, P.census_width, P.census_height, &tls_padded_r);
-  out.census_ms = MsSince(t0);
+// Scratch kept per calling thread and reused across frames: re-faulting ~100 MB of fresh pages
+// each frame costs more than a frame's aggregation on small ranges. Callers bind named references
+// to its members, so worker threads inside the lambdas see the caller's instance.
+struct SgmScratch {
+  std::vector<uint64_t> cl, cr;          // census codes, left and right
+  cv::Mat padded_l, padded_r;            // the census plans' bordered images
+  Volume volume;                         // cost and sum volumes
+  std::vector<uint8_t> cost_ring;        // packed layout: cost rows in flight
+  std::vector<uint16_t> sum_ring;        // packed layout: sum rows in flight
+  std::vector<uint32_t> right, edge;     // right-view winners and their run ends
+  std::vector<uint16_t> best;            // left winners
+};
 
-  std::vector<v16> bias(nchunks, Splat(0));
-  for (int k = D; k < Dp; ++k) bias[k / kLanes][k % kLanes] = kBig;
-  const Penalties pen(P);
+SgmScratch& ThreadScratch() {
+  thread_local SgmScratch scratch;
+  return scratch;
+}
 
-  // The volumes are kept per calling thread: re-faulting ~100 MB of fresh pages each frame costs
-  // more than a frame's aggregation on small ranges.
-  // (A named reference, so worker threads inside the lambdas see the caller's instance.)
-  thread_local Volume tls_volume;
-  Volume& vol = tls_volume;
-  // Packed layout (4 paths, small costs and P2): no cost volume, cost and sum rows in rings.
-  const PackedLayout pk(P);
+// Sizes the volumes and, with the packed layout, the ring buffers for a W x H x Dp frame: the
+// packed layout (4 paths, small costs and P2) has no cost volume, cost and sum rows in rings.
+// Returns the ring's rows.
+int PrepareVolumes(SgmScratch& s, const PackedLayout& pk, int W, int H, int D, int Dp) {
+  Volume& vol = s.volume;
   const size_t n = static_cast<size_t>(W) * H * Dp;
   if (n > vol.sum_capacity) {
     vol.sum.reset();
@@ -119,17 +110,131 @@ SgmOutput ComputeSgm(const cv::Mat& left_gray8, const cv::Mat& right_gray8, cons
     vol.cost_capacity = n;
   }
   vol.W = W, vol.H = H, vol.D = D, vol.Dp = Dp;
-  thread_local std::vector<uint8_t> tls_cost_ring;
-  thread_local std::vector<uint16_t> tls_sum_ring;
   const int ring_rows = PipelineTokens() * kRowsPerToken;
-  std::vector<uint8_t>& cost_ring = tls_cost_ring;
-  std::vector<uint16_t>& sum_ring = tls_sum_ring;
   if (pk.on) {
-    cost_ring.resize(static_cast<size_t>(ring_rows) * W * Dp);
-    sum_ring.resize(static_cast<size_t>(ring_rows) * W * Dp);
+    s.cost_ring.resize(static_cast<size_t>(ring_rows) * W * Dp);
+    s.sum_ring.resize(static_cast<size_t>(ring_rows) * W * Dp);
   }
+  return ring_rows;
+}
+
+// Width of the column blocks of the 4-path upward sweep (W with 8 paths: one run per row).
+// Two blocks per thread (each thread sweeps a few wide blocks: finer blocks add per-row overhead
+// and shorter runs through memory), more while a block's line buffers would pass ~64 KB, in
+// steps of the thread count, so threads stay balanced; at least Dp wide (RightWinnerRows). The
+// result does not depend on the blocks.
+int ColumnBlockWidth(const SgmParams& P, int W, int Dp) {
+  int block = W;
+  if (P.num_paths == 4) {
+    const int threads = std::max(1, tbb::this_task_arena::max_concurrency());
+    const int cap = std::max(256, 32768 / Dp);
+    for (int nb = 2 * threads;; nb += threads) {
+      block = std::max(Dp, (W + nb - 1) / nb + 15) / 16 * 16;
+      if (block <= cap || block <= Dp) break;
+    }
+  }
+  return block;
+}
+
+// 8 paths: the vertical and diagonal paths complete S. Rows are swept top-down, then bottom-up;
+// each row's columns are independent given the previous row.
+void EightPathSweeps(const PassInputs& in) {
+  const Volume& vol = in.vol;
+  const int W = in.W, H = in.H, Dp = in.Dp;
+  const int dus[3] = {0, 1, -1};  // previous pixel column = u - du
+  for (int sweep = 0; sweep < 2; ++sweep) {
+    std::vector<LineBuffer> prevb, curb;
+    for (int d = 0; d < 3; ++d) prevb.emplace_back(W, Dp), curb.emplace_back(W, Dp);
+    for (int step = 0; step < H; ++step) {
+      const int v = sweep == 0 ? step : H - 1 - step;
+      const int vp = sweep == 0 ? v - 1 : v + 1;
+      tbb::parallel_for(tbb::blocked_range<int>(0, W, 64), [&](const tbb::blocked_range<int>& r) {
+        for (int u = r.begin(); u < r.end(); ++u) {
+          for (int d = 0; d < 3; ++d) {
+            const int up = u - dus[d];
+            if (step == 0 || up < 0 || up >= W) {
+              curb[d].min[u] = StepStart<Acc::kAdd>(vol.Cost(v, u), in.bias, curb[d].L(u), vol.Sum(v, u), Dp);
+            } else {
+              curb[d].min[u] = Step<Acc::kAdd>(vol.Cost(v, u), in.bias, prevb[d].L(up), prevb[d].min[up], in.pen.p1,
+                                               in.pen.Eff(in.I(v, u), in.I(vp, up)), curb[d].L(u), vol.Sum(v, u), Dp);
+            }
+          }
+        }
+      });
+      std::swap(prevb, curb);
+    }
+  }
+}
+
+// 8 paths: winner-takes-all per row over the completed sums, and the right-view winners for the
+// left-right check when `right` is set.
+void EightPathWta(const PassInputs& in, const Wta& wta, uint16_t* best, uint32_t* right, uint32_t* edge,
+                  SgmOutput* out) {
+  const Volume& vol = in.vol;
+  const int W = in.W, H = in.H, D = in.D, Dp = in.Dp;
+  const bool lr = right != nullptr;
+  tbb::parallel_for(tbb::blocked_range<int>(0, H, 4), [&](const tbb::blocked_range<int>& r) {
+    RightWinners<> rw(D, Dp);
+    std::vector<int> num(W), den(W);
+    for (int v = r.begin(); v < r.end(); ++v) {
+      const int off = in.Offset(v);
+      float* disp = out->disparity.ptr<float>(v);
+      uint8_t* valid = out->valid.ptr<uint8_t>(v);
+      uint16_t* bestv = best + static_cast<size_t>(v) * W;
+      if (lr) rw.Start(right + static_cast<size_t>(v) * W, edge + static_cast<size_t>(v) * Dp, W, 0, off);
+      for (int u = 0; u < W; ++u) {
+        bestv[u] = static_cast<uint16_t>(wta.Pixel(vol.Sum(v, u), u, off, &num[u], &den[u], valid + u));
+        if (lr) rw.Push(vol.Sum(v, u));
+      }
+      Wta::Disparities(bestv, num.data(), den.data(), valid, off, W, disp);
+      if (lr) rw.Finish();
+    }
+  });
+}
+
+// Left-right check: the right-view winner of the matched target pixel must agree.
+void LeftRightCheck(const PassInputs& in, const RightWinnerRows& winners, const uint16_t* best, SgmOutput* out) {
+  const int W = in.W, H = in.H;
+  tbb::parallel_for(tbb::blocked_range<int>(0, H, 16), [&](const tbb::blocked_range<int>& r) {
+    std::vector<uint32_t> win(W);
+    for (int v = r.begin(); v < r.end(); ++v) {
+      const int off = in.Offset(v);
+      float* disp = out->disparity.ptr<float>(v);
+      uint8_t* valid = out->valid.ptr<uint8_t>(v);
+      winners.CheckRow(v, off, best + static_cast<size_t>(v) * W, in.P.lr_max_diff, valid, disp, win.data());
+    }
+  });
+}
+
+}  // namespace
+
+SgmOutput ComputeSgm(const cv::Mat& left_gray8, const cv::Mat& right_gray8, const SgmParams& P) {
+  if (left_gray8.type() != CV_8UC1 || right_gray8.type() != CV_8UC1 || left_gray8.size() != right_gray8.size() ||
+      left_gray8.empty())
+    throw std::invalid_argument("sgm: inputs must be non-empty CV_8UC1 images of equal size");
+  P.Check(left_gray8.rows);
+  const cv::Mat L = left_gray8.isContinuous() ? left_gray8 : left_gray8.clone();
+  const cv::Mat R = right_gray8.isContinuous() ? right_gray8 : right_gray8.clone();
+  const int W = L.cols, H = L.rows, D = P.num_disparities, Dp = (D + kLanes - 1) / kLanes * kLanes, nchunks = Dp / kLanes;
+  SgmOutput out;
+  SgmScratch& scratch = ThreadScratch();
+
+  auto t0 = std::chrono::steady_clock::now();
+  std::vector<uint64_t>& cl = scratch.cl;
+  std::vector<uint64_t>& cr = scratch.cr;
+  cl.resize(L.total()), cr.resize(R.total());
+  CensusPlan census_l, census_r;  // the codes themselves are computed per token in pass 1
+  census_l.Prepare(L, P.census_width, P.census_height, &scratch.padded_l);
+  census_r.Prepare(R, P.census_width, P.census_height, &scratch.padded_r);
+  out.census_ms = MsSince(t0);
+
+  std::vector<v16> bias(nchunks, Splat(0));
+  for (int k = D; k < Dp; ++k) bias[k / kLanes][k % kLanes] = kBig;
+  const Penalties pen(P);
+  const PackedLayout pk(P);
+  const int ring_rows = PrepareVolumes(scratch, pk, W, H, D, Dp);
+  Volume& vol = scratch.volume;
   const uint8_t* img = L.ptr<uint8_t>(0);
-  auto I = [&](int v, int u) -> int { return img[static_cast<size_t>(v) * W + u]; };
 
   // Packed rows above stream_rows bypass the caches (no read-for-ownership of ~60 MB); the last
   // ~8 MB stay cached, because the upward pass starts there.
@@ -150,35 +255,20 @@ SgmOutput ComputeSgm(const cv::Mat& left_gray8, const cv::Mat& right_gray8, cons
                           R,
                           &cost_ms_total,
                           pk,
-                          pk.on ? cost_ring.data() : vol.cost.get(),
-                          pk.on ? sum_ring.data() : vol.sum.get(),
+                          pk.on ? scratch.cost_ring.data() : vol.cost.get(),
+                          pk.on ? scratch.sum_ring.data() : vol.sum.get(),
                           pk.on ? ring_rows : 0,
                           stream_rows};
     CostAndHorizontalPaths(ctx, P.num_paths == 4);  // specialised on nchunks inside
   }
 
-  // Right-view winners (left-right check) packed per target pixel, and the left winners.
-  // Column blocks of the 4-path upward sweep (one run per row with 8 paths); every entry of
-  // `right` and `edge` that RightWinner reads is written each frame, so neither is cleared.
-  // Two blocks per thread (each thread sweeps a few wide blocks: finer blocks cost 1-2 ms CPU per
-  // 1280x720 frame on 2 threads, in per-row overhead and shorter runs through memory), more
-  // while a block's line buffers would pass ~64 KB, in steps of the thread count, so threads
-  // stay balanced; at least Dp wide (RightWinnerRows). The result does not depend on the blocks.
-  int block = W;
-  if (P.num_paths == 4) {
-    const int threads = std::max(1, tbb::this_task_arena::max_concurrency());
-    const int cap = std::max(256, 32768 / Dp);
-    for (int nb = 2 * threads;; nb += threads) {
-      block = std::max(Dp, (W + nb - 1) / nb + 15) / 16 * 16;
-      if (block <= cap || block <= Dp) break;
-    }
-  }
+  // Right-view winners (left-right check) packed per target pixel, and the left winners. Every
+  // entry of `right` and `edge` that RightWinner reads is written each frame, so neither is cleared.
+  const int block = ColumnBlockWidth(P, W, Dp);
   const int blocks = (W + block - 1) / block;
-  thread_local std::vector<uint32_t> tls_right, tls_edge;
-  thread_local std::vector<uint16_t> tls_best;
-  std::vector<uint32_t>& right = tls_right;
-  std::vector<uint32_t>& edge = tls_edge;
-  std::vector<uint16_t>& best = tls_best;
+  std::vector<uint32_t>& right = scratch.right;
+  std::vector<uint32_t>& edge = scratch.edge;
+  std::vector<uint16_t>& best = scratch.best;
   const bool lr = P.lr_max_diff >= 0;
   if (lr) right.resize(static_cast<size_t>(W) * H), edge.resize(static_cast<size_t>(H) * blocks * Dp);
   best.resize(static_cast<size_t>(W) * H);
@@ -191,67 +281,16 @@ SgmOutput ComputeSgm(const cv::Mat& left_gray8, const cv::Mat& right_gray8, cons
     const VerticalContext ctx{in, lr, wta, best.data(), right.data(), edge.data(), block, blocks, &out, pk};
     VerticalPathsAndWta(ctx);  // specialised on nchunks inside
   } else {
-    // With diagonals: sweep rows; each row's columns are independent given the previous row.
-    const int dus[3] = {0, 1, -1};  // previous pixel column = u - du
-    for (int sweep = 0; sweep < 2; ++sweep) {
-      std::vector<LineBuffer> prevb, curb;
-      for (int d = 0; d < 3; ++d) prevb.emplace_back(W, Dp), curb.emplace_back(W, Dp);
-      for (int step = 0; step < H; ++step) {
-        const int v = sweep == 0 ? step : H - 1 - step;
-        const int vp = sweep == 0 ? v - 1 : v + 1;
-        tbb::parallel_for(tbb::blocked_range<int>(0, W, 64), [&](const tbb::blocked_range<int>& r) {
-          for (int u = r.begin(); u < r.end(); ++u) {
-            for (int d = 0; d < 3; ++d) {
-              const int up = u - dus[d];
-              if (step == 0 || up < 0 || up >= W) {
-                curb[d].min[u] = StepStart<Acc::kAdd>(vol.Cost(v, u), bias.data(), curb[d].L(u), vol.Sum(v, u), Dp);
-              } else {
-                curb[d].min[u] = Step<Acc::kAdd>(vol.Cost(v, u), bias.data(), prevb[d].L(up), prevb[d].min[up], pen.p1,
-                                                 pen.Eff(I(v, u), I(vp, up)), curb[d].L(u), vol.Sum(v, u), Dp);
-              }
-            }
-          }
-        });
-        std::swap(prevb, curb);
-      }
-    }
+    EightPathSweeps(in);
     const auto tw = std::chrono::steady_clock::now();
-    tbb::parallel_for(tbb::blocked_range<int>(0, H, 4), [&](const tbb::blocked_range<int>& r) {
-      RightWinners<> rw(D, Dp);
-      std::vector<int> num(W), den(W);
-      for (int v = r.begin(); v < r.end(); ++v) {
-        const int off = offset(v);
-        float* disp = out.disparity.ptr<float>(v);
-        uint8_t* valid = out.valid.ptr<uint8_t>(v);
-        uint16_t* bestv = best.data() + static_cast<size_t>(v) * W;
-        if (lr) rw.Start(right.data() + static_cast<size_t>(v) * W, edge.data() + static_cast<size_t>(v) * Dp, W, 0, off);
-        for (int u = 0; u < W; ++u) {
-          bestv[u] = static_cast<uint16_t>(wta.Pixel(vol.Sum(v, u), u, off, &num[u], &den[u], valid + u));
-          if (lr) rw.Push(vol.Sum(v, u));
-        }
-        Wta::Disparities(bestv, num.data(), den.data(), valid, off, W, disp);
-        if (lr) rw.Finish();
-      }
-    });
+    EightPathWta(in, wta, best.data(), lr ? right.data() : nullptr, lr ? edge.data() : nullptr, &out);
     wta_ms = MsSince(tw);
   }
   out.aggregation_ms = MsSince(t0) - wta_ms;
   out.cost_ms = cost_ms_total.load();
 
-  // Left-right check: the right-view winner of the matched target pixel must agree.
   t0 = std::chrono::steady_clock::now();
-  if (lr) {
-    const RightWinnerRows winners(right.data(), edge.data(), W, Dp, block);
-    tbb::parallel_for(tbb::blocked_range<int>(0, H, 16), [&](const tbb::blocked_range<int>& r) {
-      std::vector<uint32_t> win(W);
-      for (int v = r.begin(); v < r.end(); ++v) {
-        const int off = offset(v);
-        float* disp = out.disparity.ptr<float>(v);
-        uint8_t* valid = out.valid.ptr<uint8_t>(v);
-        winners.CheckRow(v, off, best.data() + static_cast<size_t>(v) * W, P.lr_max_diff, valid, disp, win.data());
-      }
-    });
-  }
+  if (lr) LeftRightCheck(in, RightWinnerRows(right.data(), edge.data(), W, Dp, block), best.data(), &out);
   out.wta_ms = wta_ms + MsSince(t0);
   return out;
 }

@@ -26,8 +26,7 @@ constexpr int kRowsPerToken = 4;  // four independent path chains per thread hid
 // Tokens in flight in pass 1 with the downward path: one per thread, at least 2 (the serial
 // downward stage overlaps the next token's horizontal paths); few, so that the packed layout's
 // ring buffers (tokens * kRowsPerToken rows: at most that many tokens are in flight, so row v's
-// slot is reused by row v + ring only after v is packed) stay small (2 tokens were 0.3-1 ms CPU
-// per 1280x720 frame cheaper than 4 on 2 threads).
+// slot is reused by row v + ring only after v is packed) stay small.
 int PipelineTokens();
 
 // What both passes read (see ComputeSgm).

@@ -38,6 +38,55 @@ void CheckFrameSize(const cv::Mat& image, const CameraIntrinsics& cam, const fs:
 
 int64_t Seconds(double s) { return static_cast<int64_t>(std::llround(s * 1e9)); }
 
+// The frame list downstream stages read: skipped frames are left out (ids keep their values);
+// raw pairs point at their rectified images in the frame's folder.
+std::vector<FrameRecord> UsableFrames(const StageContext& ctx, const std::vector<FrameRecord>& frames, bool raw) {
+  std::vector<FrameRecord> good;
+  for (auto f : frames) {
+    const fs::path dir = ctx.FrameDir(f.id);
+    if (fs::exists(dir / "skipped.json")) continue;
+    if (raw) {
+      f.left = dir / "left.png";
+      f.right = dir / "right.png";
+    }
+    good.push_back(f);
+  }
+  return good;
+}
+
+// The camera-log clock offset, ns: the configured one, or the estimate from the log's camera
+// trigger events where it is confident. `offset_report_out` receives both (ingest.json).
+int64_t ClockOffset(StageContext& ctx, const IngestOptions& o, const nlohmann::json& log_spec,
+                    const std::vector<FrameRecord>& good, const FlightTrack& track, nlohmann::json* offset_report_out) {
+  int64_t offset_ns = Seconds(log_spec.value("clock_offset_s", 0.0));
+  nlohmann::json& offset_report = *offset_report_out;
+  offset_report = {{"configured_s", offset_ns * 1e-9}, {"used_s", offset_ns * 1e-9}, {"method", "configured"}};
+  if (o.estimate_clock_offset) {
+    std::vector<int64_t> times;
+    for (const auto& f : good) times.push_back(f.t_ns);
+    if (const auto est = EstimateClockOffsetFromEvents(times, track.camera_events, offset_ns)) {
+      offset_report["estimate"] = {{"offset_s", est->offset_ns * 1e-9},
+                                   {"spread_s", est->spread_ns * 1e-9},
+                                   {"matched_pairs", est->matched_pairs},
+                                   {"index_shift", est->index_shift},
+                                   {"confident", est->confident},
+                                   {"method", est->method}};
+      if (est->confident) {
+        offset_ns = est->offset_ns;
+        offset_report["used_s"] = offset_ns * 1e-9;
+        offset_report["method"] = est->method;
+      } else {
+        ctx.Warn(fmt::format("clock offset estimate {:.3f} s is not confident (spread {:.3f} s): using the "
+                             "configured {:.3f} s",
+                             est->offset_ns * 1e-9, est->spread_ns * 1e-9, offset_ns * 1e-9));
+      }
+    } else {
+      offset_report["estimate"] = "not possible: the log has too few camera events";
+    }
+  }
+  return offset_ns;
+}
+
 }  // namespace
 
 void IngestOptions::Check() const {}
@@ -126,17 +175,7 @@ void IngestStage::Run(StageContext& ctx, const IngestOptions& o) const {
       },
       o.skip_bad_frames);
 
-  // The frame list downstream stages read: skipped frames are left out (ids keep their values).
-  std::vector<FrameRecord> good;
-  for (auto f : frames) {
-    const fs::path dir = ctx.FrameDir(f.id);
-    if (fs::exists(dir / "skipped.json")) continue;
-    if (raw) {
-      f.left = dir / "left.png";
-      f.right = dir / "right.png";
-    }
-    good.push_back(f);
-  }
+  const std::vector<FrameRecord> good = UsableFrames(ctx, frames, raw);
   WriteFrameIndex(ctx.out_dir() / "frames.csv", good);
 
   nlohmann::json report = {{"layout", ToString(source.layout())},
@@ -168,32 +207,8 @@ void IngestStage::Run(StageContext& ctx, const IngestOptions& o) const {
     const TrackFindings findings = CheckTrack(track, Seconds(o.max_log_gap_s), o.max_speed_m_s);
     for (const auto& m : findings.messages) ctx.Warn("flight log: " + m);
 
-    int64_t offset_ns = Seconds(log_spec.value("clock_offset_s", 0.0));
-    nlohmann::json offset_report = {{"configured_s", offset_ns * 1e-9}, {"used_s", offset_ns * 1e-9},
-                                    {"method", "configured"}};
-    if (o.estimate_clock_offset) {
-      std::vector<int64_t> times;
-      for (const auto& f : good) times.push_back(f.t_ns);
-      if (const auto est = EstimateClockOffsetFromEvents(times, track.camera_events, offset_ns)) {
-        offset_report["estimate"] = {{"offset_s", est->offset_ns * 1e-9},
-                                     {"spread_s", est->spread_ns * 1e-9},
-                                     {"matched_pairs", est->matched_pairs},
-                                     {"index_shift", est->index_shift},
-                                     {"confident", est->confident},
-                                     {"method", est->method}};
-        if (est->confident) {
-          offset_ns = est->offset_ns;
-          offset_report["used_s"] = offset_ns * 1e-9;
-          offset_report["method"] = est->method;
-        } else {
-          ctx.Warn(fmt::format("clock offset estimate {:.3f} s is not confident (spread {:.3f} s): using the "
-                               "configured {:.3f} s",
-                               est->offset_ns * 1e-9, est->spread_ns * 1e-9, offset_ns * 1e-9));
-        }
-      } else {
-        offset_report["estimate"] = "not possible: the log has too few camera events";
-      }
-    }
+    nlohmann::json offset_report;
+    const int64_t offset_ns = ClockOffset(ctx, o, log_spec, good, track, &offset_report);
     priors = InterpolatePriors(good, track, offset_ns, Seconds(o.max_log_gap_s));
     std::map<std::string, int> by_status;
     for (const auto& p : priors) ++by_status[ToString(p.status)];

@@ -30,15 +30,15 @@ Eigen::Isometry3d FromParams(const std::array<double, 6>& p) {
   return T;
 }
 
-double ObservationChi2(const StereoCamera& cam, const Keyframe& kf, int feat, const Eigen::Vector3d& p_world,
+double ObservationChi2(const RectifiedStereo& cam, const Keyframe& kf, int feat, const Eigen::Vector3d& p_world,
                        const ScalePyramid& pyramid, bool* stereo) {
   const cv::KeyPoint& kp = kf.features.keypoints[feat];
   const Eigen::Vector3d pc = kf.T_cam_world * p_world;
   *stereo = kf.features.u_right[feat] >= 0;
   if (pc.z() <= 1e-6) return 1e9;
   const double iz = 1.0 / pc.z();
-  double e2 = std::pow(kp.pt.x - (cam.fx * pc.x() * iz + cam.cx), 2) + std::pow(kp.pt.y - (cam.fy * pc.y() * iz + cam.cy), 2);
-  if (*stereo) e2 += std::pow(kf.features.u_right[feat] - (cam.fx * (pc.x() - cam.baseline_m) * iz + cam.cx), 2);
+  double e2 = std::pow(kp.pt.x - (cam.f_px * pc.x() * iz + cam.cx_px), 2) + std::pow(kp.pt.y - (cam.f_px * pc.y() * iz + cam.cy_px), 2);
+  if (*stereo) e2 += std::pow(kf.features.u_right[feat] - (cam.f_px * (pc.x() - cam.baseline_m) * iz + cam.cx_px), 2);
   return e2 * pyramid.inv_sigma2[kp.octave];
 }
 
@@ -106,7 +106,7 @@ void EvaluateReprojection(const ReprojectionResidual& r, const double* pose, con
   }
 }
 
-BundleAdjustSummary BundleAdjust(SlamMap* map, const std::vector<int>& free_kfs, const StereoCamera& cam,
+BundleAdjustSummary BundleAdjust(SlamMap* map, const std::vector<int>& free_kfs, const RectifiedStereo& cam,
                                  const ScalePyramid& pyramid, int iterations, bool remove_outliers,
                                  const std::vector<int>& fixed_kfs_extra, bool fixed_size) {
   BundleAdjustSummary summary;
@@ -157,7 +157,7 @@ BundleAdjustSummary BundleAdjust(SlamMap* map, const std::vector<int>& free_kfs,
           SmallBundleObservation o;
           o.pose = pose_index.at(k);
           o.point = q;
-          o.r = ReprojectionResidual{kp.pt.x, kp.pt.y, kf.features.u_right[f], cam.fx, cam.fy, cam.cx, cam.cy,
+          o.r = ReprojectionResidual{kp.pt.x, kp.pt.y, kf.features.u_right[f], cam.f_px, cam.f_px, cam.cx_px, cam.cy_px,
                                      cam.baseline_m, 1.0 / pyramid.scale[kp.octave]};
           o.huber = std::sqrt(o.r.u_right >= 0 ? kChi2Stereo : kChi2Mono);
           sp.observations.push_back(o);
@@ -180,7 +180,7 @@ BundleAdjustSummary BundleAdjust(SlamMap* map, const std::vector<int>& free_kfs,
       for (auto& [k, f] : map->points[p].observations) {
         const Keyframe& kf = map->keyframes[k];
         const cv::KeyPoint& kp = kf.features.keypoints[f];
-        ReprojectionResidual r{kp.pt.x, kp.pt.y, kf.features.u_right[f], cam.fx, cam.fy, cam.cx, cam.cy,
+        ReprojectionResidual r{kp.pt.x, kp.pt.y, kf.features.u_right[f], cam.f_px, cam.f_px, cam.cx_px, cam.cy_px,
                                cam.baseline_m, 1.0 / pyramid.scale[kp.octave]};
         auto* cost = new ReprojectionCost(r);
         (r.u_right >= 0 ? used_stereo : used_mono) = true;

@@ -57,7 +57,7 @@ struct BundleAdjustSummary {
 /// those points is held fixed. With remove_outliers, observations above the chi-square threshold are
 /// erased afterwards (and the problem re-solved once without them). fixed_size: solve windows of
 /// <= 40 poses with SolveSmallBundle (bundle_adjust_solver.h) instead of Ceres.
-BundleAdjustSummary BundleAdjust(SlamMap* map, const std::vector<int>& free_kfs, const StereoCamera& camera,
+BundleAdjustSummary BundleAdjust(SlamMap* map, const std::vector<int>& free_kfs, const RectifiedStereo& camera,
                                  const ScalePyramid& pyramid, int iterations, bool remove_outliers,
                                  const std::vector<int>& fixed_kfs_extra = {}, bool fixed_size = false);
 

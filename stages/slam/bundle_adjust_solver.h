@@ -1,8 +1,8 @@
 #pragma once
 // Levenberg-Marquardt for a small bundle adjustment (a local window: a few free poses, thousands of
 // points) with fixed-size 3x6 / 3x3 blocks and a dense reduced camera system. Ceres' DENSE_SCHUR runs
-// its generic (dynamic-size) Schur eliminator for 3-row residuals and locks a mutex per block update;
-// on the KITTI clip that made the local BA the largest CPU item. Same cost (0.5 sum of Huber(|r|^2)),
+// its generic (dynamic-size) Schur eliminator for 3-row residuals and locks a mutex per block update,
+// costly for many small blocks. Same cost (0.5 sum of Huber(|r|^2)),
 // same parametrisation (angle-axis + translation of T_cam_world, additive updates) and the same
 // trust-region rules as Ceres' LM; single-threaded and deterministic (a fixed visiting order).
 

@@ -113,7 +113,7 @@ DisparityOffsetEstimate EstimateDisparityOffset(const std::vector<DisparityPairS
   return out;
 }
 
-std::vector<DisparityPairSample> CollectDisparitySamples(const SlamMap& map, const StereoCamera& cam,
+std::vector<DisparityPairSample> CollectDisparitySamples(const SlamMap& map, const RectifiedStereo& cam,
                                                          const std::vector<int>& keyframes, int* num_pairs) {
   const std::set<int> use(keyframes.begin(), keyframes.end());
   std::map<std::pair<int, int>, int> pair_index;
@@ -132,7 +132,7 @@ std::vector<DisparityPairSample> CollectDisparitySamples(const SlamMap& map, con
       DisparityPairSample s;
       s.d_i = kpi.pt.x - ki.features.u_right[obs[m - 1].second];
       s.d_j = kpj.pt.x - kj.features.u_right[obs[m].second];
-      const Eigen::Vector3d ray_i((kpi.pt.x - cam.cx) / cam.fx, (kpi.pt.y - cam.cy) / cam.fy, 1.0);
+      const Eigen::Vector3d ray_i((kpi.pt.x - cam.cx_px) / cam.f_px, (kpi.pt.y - cam.cy_px) / cam.f_px, 1.0);
       s.a = (kj.T_cam_world.linear() * ki.T_cam_world.linear().transpose() * ray_i).z();
       const auto key = std::make_pair(ki.id, kj.id);
       auto it = pair_index.find(key);

@@ -9,9 +9,8 @@
 // depth change grow with depth, (z_i - z_j)' = tz (1 + o (z_i + z_j) / bf): o is observable wherever
 // the camera moves along its optical axis past points at different depths (KITTI: a forward camera),
 // and not from a nadir camera moving sideways over flat ground (then the estimate is rejected).
-// Used as a diagnostic (StereoSlam reports it, slam_bench prints it): on the KITTI clip the whole
-// map gives the LiDAR check's 0.26 px, but estimates over shorter windows scatter beyond their
-// standard error (unmodelled per-frame errors), so it is not applied to the depths.
+// Used as a diagnostic (StereoSlam reports it, slam_bench prints it): estimates over shorter windows
+// scatter beyond their standard error (unmodelled per-frame errors), so it is not applied to the depths.
 
 #include <vector>
 
@@ -43,7 +42,7 @@ DisparityOffsetEstimate EstimateDisparityOffset(const std::vector<DisparityPairS
 
 /// Samples from the map: every live point seen with stereo by two of `keyframes` (consecutive ones
 /// of its observations, sorted by id), one pair index per keyframe pair; *num_pairs receives the count.
-std::vector<DisparityPairSample> CollectDisparitySamples(const SlamMap& map, const StereoCamera& camera,
+std::vector<DisparityPairSample> CollectDisparitySamples(const SlamMap& map, const RectifiedStereo& camera,
                                                          const std::vector<int>& keyframes, int* num_pairs);
 
 }  // namespace rs

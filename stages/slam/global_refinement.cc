@@ -94,13 +94,13 @@ void EvaluateCentreReprojection(const ReprojectionResidual& r, double disparity_
 }
 
 BundleAdjustSummary GlobalBundleAdjustWithFrames(SlamMap* map, std::vector<RefinedFrame>* frames,
-                                                 const StereoCamera& cam, const ScalePyramid& pyramid,
+                                                 const RectifiedStereo& cam, const ScalePyramid& pyramid,
                                                  int iterations, const std::vector<int>& fixed_kfs,
                                                  double disparity_sigma_px, int min_frame_observations) {
   BundleAdjustSummary summary;
   const int nk = static_cast<int>(map->keyframes.size()), nf = static_cast<int>(frames->size());
   auto residual = [&](float u, float v, float u_right, int octave) {
-    return ReprojectionResidual{u, v, u_right, cam.fx, cam.fy, cam.cx, cam.cy, cam.baseline_m,
+    return ReprojectionResidual{u, v, u_right, cam.f_px, cam.f_px, cam.cx_px, cam.cy_px, cam.baseline_m,
                                 1.0 / pyramid.scale[octave]};
   };
   // Frame observations resolved to live points; frames with too few stay where tracking put them.

@@ -43,7 +43,7 @@ void EvaluateCentreReprojection(const ReprojectionResidual& r, double disparity_
 /// observations above the chi-square threshold removed (keyframe ones erased from the map, frame
 /// ones dropped) and the problem solved again with half the iterations. Deterministic (one thread).
 BundleAdjustSummary GlobalBundleAdjustWithFrames(SlamMap* map, std::vector<RefinedFrame>* frames,
-                                                 const StereoCamera& camera, const ScalePyramid& pyramid,
+                                                 const RectifiedStereo& camera, const ScalePyramid& pyramid,
                                                  int iterations, const std::vector<int>& fixed_kfs,
                                                  double disparity_sigma_px, int min_frame_observations = 10);
 

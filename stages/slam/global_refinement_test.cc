@@ -51,7 +51,7 @@ TEST(GlobalRefinement, JacobiansMatchNumeric) {
 // outliers) is easy; on the rendered loop the bend is a much flatter mode (docs/stages/slam.md).
 TEST(GlobalRefinement, BentStripIsStraightened) {
   const double f = 1000, cx = 639.5, cy = 359.5, B = 0.3, h = 6.0;
-  const StereoCamera cam{f, f, cx, cy, B, 1280, 720};
+  const RectifiedStereo cam{.f_px = f, .cx_px = cx, .cy_px = cy, .baseline_m = B, .width = 1280, .height = 720};
   const ScalePyramid pyr(1, 1.2);
   const int n_frames = 81, kf_every = 4;
   const double step_m = 0.5;

@@ -101,18 +101,18 @@ std::vector<int> NearestCandidates(const SlamMap& map, int i, int min_gap, Dista
 
 // Half the smaller side of a keyframe's ground footprint (median stereo depth): centres closer than
 // this see overlapping ground.
-double OverlapRadius(const Keyframe& kf, const StereoCamera& cam) {
+double OverlapRadius(const Keyframe& kf, const RectifiedStereo& cam) {
   std::vector<float> depth;
   for (float d : kf.features.depth_m)
     if (d > 0) depth.push_back(d);
   if (depth.empty()) return 0;
   std::nth_element(depth.begin(), depth.begin() + depth.size() / 2, depth.end());
-  return 0.5 * depth[depth.size() / 2] * std::min(cam.width / cam.fx, cam.height / cam.fy);
+  return 0.5 * depth[depth.size() / 2] * std::min(cam.width / cam.f_px, cam.height / cam.f_px);
 }
 
 }  // namespace
 
-std::vector<LoopClosure> DetectAndCloseLoops(SlamMap* map, const StereoCamera& cam, const ScalePyramid& pyr,
+std::vector<LoopClosure> DetectAndCloseLoops(SlamMap* map, const RectifiedStereo& cam, const ScalePyramid& pyr,
                                              const SlamOptions& opt, SlamStatistics* stats) {
   std::vector<LoopClosure> loops;
   const int n = static_cast<int>(map->keyframes.size());

@@ -18,7 +18,7 @@ struct SlamOptions;
 struct SlamStatistics;
 
 /// Detects, verifies and closes loops in `map` (poses and points corrected in place).
-std::vector<LoopClosure> DetectAndCloseLoops(SlamMap* map, const StereoCamera& camera, const ScalePyramid& pyramid,
+std::vector<LoopClosure> DetectAndCloseLoops(SlamMap* map, const RectifiedStereo& camera, const ScalePyramid& pyramid,
                                              const SlamOptions& options, SlamStatistics* stats);
 
 }  // namespace rs

@@ -136,7 +136,7 @@ TEST(LoopClosing, VerificationRelativePoseMatchesTruth) {
   const SlamMap& map = r.result.map;
   const StereoSource source = OpenStereoSource(dir, "plain");
   const StereoCalibration& c = *source.calibration();
-  StereoCamera cam{c.left.fx, c.left.fy, c.left.cx, c.left.cy, c.BaselineM(), c.left.width, c.left.height};
+  const RectifiedStereo cam = RectifiedStereoOf(c);
   const ScalePyramid pyr(so.pyramid_levels, so.scale_factor);
   // The last keyframe (end of the return leg, near the start) and the outbound keyframes.
   const int q = static_cast<int>(map.keyframes.size()) - 1;

@@ -18,20 +18,20 @@ constexpr int kGuidedMaxHamming = 50;      // ORB-SLAM2's TH_LOW for searches wi
 constexpr double kGuidedRadiusPx = 8;      // x pyramid scale; the RANSAC pose is good to a few px
 constexpr int kLocalMapKeyframes = 10;     // covisible keyframes of the candidate searched
 
-Eigen::Vector3d Backproject(const StereoCamera& cam, const StereoFeatures& f, int i) {
+Eigen::Vector3d Backproject(const RectifiedStereo& cam, const StereoFeatures& f, int i) {
   const double z = f.depth_m[i];
-  return {(f.keypoints[i].pt.x - cam.cx) * z / cam.fx, (f.keypoints[i].pt.y - cam.cy) * z / cam.fy, z};
+  return {(f.keypoints[i].pt.x - cam.cx_px) * z / cam.f_px, (f.keypoints[i].pt.y - cam.cy_px) * z / cam.f_px, z};
 }
 
 // Chi-square of camera point p against feature i's stereo (u, v, u_right) measurement at its level's sigma.
-double StereoChi2(const StereoCamera& cam, const StereoFeatures& f, int i, const Eigen::Vector3d& p,
+double StereoChi2(const RectifiedStereo& cam, const StereoFeatures& f, int i, const Eigen::Vector3d& p,
                   const ScalePyramid& pyr) {
   if (p.z() <= 1e-6) return 1e9;
   const double iz = 1.0 / p.z();
   const cv::KeyPoint& kp = f.keypoints[i];
-  const double du = kp.pt.x - (cam.fx * p.x() * iz + cam.cx);
-  const double dv = kp.pt.y - (cam.fy * p.y() * iz + cam.cy);
-  const double dr = f.u_right[i] - (cam.fx * (p.x() - cam.baseline_m) * iz + cam.cx);
+  const double du = kp.pt.x - (cam.f_px * p.x() * iz + cam.cx_px);
+  const double dv = kp.pt.y - (cam.f_px * p.y() * iz + cam.cy_px);
+  const double dr = f.u_right[i] - (cam.f_px * (p.x() - cam.baseline_m) * iz + cam.cx_px);
   return (du * du + dv * dv + dr * dr) * pyr.inv_sigma2[kp.octave];
 }
 
@@ -95,7 +95,7 @@ std::vector<std::pair<int, int>> MatchByDescriptor(const StereoFeatures& a, cons
   return RotationConsistent(a, b, unique);
 }
 
-LoopVerification VerifyLoopCandidate(const SlamMap& map, int query, int candidate, const StereoCamera& cam,
+LoopVerification VerifyLoopCandidate(const SlamMap& map, int query, int candidate, const RectifiedStereo& cam,
                                      const ScalePyramid& pyr, int min_inliers, unsigned seed) {
   LoopVerification out;
   const Keyframe& q = map.keyframes[query];
@@ -193,7 +193,7 @@ LoopVerification VerifyLoopCandidate(const SlamMap& map, int query, int candidat
       const MapPoint& mp = map.points[p];
       const Eigen::Vector3d x = T_qw * mp.p_world;
       if (x.z() <= 1e-6) continue;
-      const double u = cam.fx * x.x() / x.z() + cam.cx, v = cam.fy * x.y() / x.z() + cam.cy;
+      const double u = cam.f_px * x.x() / x.z() + cam.cx_px, v = cam.f_px * x.y() / x.z() + cam.cy_px;
       if (u < 0 || v < 0 || u >= cam.width || v >= cam.height) continue;
       const double ur = u - cam.bf() / x.z();
       const int level = mp.max_distance_m > 0 ? pyr.PredictLevel(x.norm(), mp.max_distance_m) : 0;

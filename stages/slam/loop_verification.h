@@ -29,8 +29,7 @@ struct LoopVerification {
   /// The loop edge, mapping candidate-camera points into the query camera: through the candidate's
   /// local map (T_query_world * T_candidate_world^-1) when the guided search accepted, else the two-view
   /// estimate. The local map's hundreds of points over a wider area pin the tilt that a narrow nadir
-  /// view of flat road leaves nearly interchangeable with a shift (on the simulated loop the two-view
-  /// edges gave 0.224 % ATE, the map edges 0.218 %).
+  /// view of flat road leaves nearly interchangeable with a shift.
   Eigen::Isometry3d T_query_candidate = Eigen::Isometry3d::Identity();
   /// Two-view estimate: the candidate's stereo points of the RANSAC inliers reprojected into the query
   /// (motion-only BA); needs no map points (e.g. merging a fresh map segment).
@@ -47,7 +46,7 @@ std::vector<std::pair<int, int>> MatchByDescriptor(const StereoFeatures& a, cons
 
 /// Verifies that keyframe `query` sees the place of keyframe `candidate` (see the file comment).
 /// Deterministic for a seed.
-LoopVerification VerifyLoopCandidate(const SlamMap& map, int query, int candidate, const StereoCamera& camera,
+LoopVerification VerifyLoopCandidate(const SlamMap& map, int query, int candidate, const RectifiedStereo& camera,
                                      const ScalePyramid& pyramid, int min_inliers, unsigned seed);
 
 }  // namespace rs

@@ -30,7 +30,7 @@ Eigen::Isometry3d ExpSe3Left(const Eigen::Matrix<double, 6, 1>& delta, const Eig
   return out;
 }
 
-int OptimizePose(const StereoCamera& cam, std::vector<PoseObservation>* obs, Eigen::Isometry3d* T_cam_world) {
+int OptimizePose(const RectifiedStereo& cam, std::vector<PoseObservation>* obs, Eigen::Isometry3d* T_cam_world) {
   if (obs->size() < 3) return 0;
   const double delta_mono = std::sqrt(kChi2Mono), delta_stereo = std::sqrt(kChi2Stereo);
   for (auto& o : *obs) o.outlier = false;
@@ -50,12 +50,12 @@ int OptimizePose(const StereoCamera& cam, std::vector<PoseObservation>* obs, Eig
         const double iz = 1.0 / pc.z(), x = pc.x(), y = pc.y();
         const bool stereo = o.u_right >= 0;
         Eigen::Matrix<double, 3, 3> Jp;  // d(u, v, ur)/d pc
-        Jp << cam.fx * iz, 0, -cam.fx * x * iz * iz, 0, cam.fy * iz, -cam.fy * y * iz * iz, cam.fx * iz, 0,
-            -cam.fx * (x - cam.baseline_m) * iz * iz;
+        Jp << cam.f_px * iz, 0, -cam.f_px * x * iz * iz, 0, cam.f_px * iz, -cam.f_px * y * iz * iz, cam.f_px * iz, 0,
+            -cam.f_px * (x - cam.baseline_m) * iz * iz;
         Eigen::Matrix<double, 3, 6> Jt;  // d pc / d delta (left perturbation: [-pc]x, I)
         Jt << 0, pc.z(), -pc.y(), 1, 0, 0, -pc.z(), 0, pc.x(), 0, 1, 0, pc.y(), -pc.x(), 0, 0, 0, 1;
-        Eigen::Vector3d r(o.u - (cam.fx * x * iz + cam.cx), o.v - (cam.fy * y * iz + cam.cy), 0);
-        if (stereo) r.z() = o.u_right - (cam.fx * (x - cam.baseline_m) * iz + cam.cx);
+        Eigen::Vector3d r(o.u - (cam.f_px * x * iz + cam.cx_px), o.v - (cam.f_px * y * iz + cam.cy_px), 0);
+        if (stereo) r.z() = o.u_right - (cam.f_px * (x - cam.baseline_m) * iz + cam.cx_px);
         const int dim = stereo ? 3 : 2;
         const Eigen::Matrix<double, 3, 6> J = -Jp * Jt;  // residual = measured - predicted
         const double chi2 = r.head(dim).squaredNorm() * o.inv_sigma2;
@@ -83,9 +83,9 @@ int OptimizePose(const StereoCamera& cam, std::vector<PoseObservation>* obs, Eig
         continue;
       }
       const double iz = 1.0 / pc.z();
-      double e2 = std::pow(o.u - (cam.fx * pc.x() * iz + cam.cx), 2) + std::pow(o.v - (cam.fy * pc.y() * iz + cam.cy), 2);
+      double e2 = std::pow(o.u - (cam.f_px * pc.x() * iz + cam.cx_px), 2) + std::pow(o.v - (cam.f_px * pc.y() * iz + cam.cy_px), 2);
       const bool stereo = o.u_right >= 0;
-      if (stereo) e2 += std::pow(o.u_right - (cam.fx * (pc.x() - cam.baseline_m) * iz + cam.cx), 2);
+      if (stereo) e2 += std::pow(o.u_right - (cam.f_px * (pc.x() - cam.baseline_m) * iz + cam.cx_px), 2);
       o.outlier = e2 * o.inv_sigma2 > (stereo ? kChi2Stereo : kChi2Mono);
       if (!o.outlier) ++inliers;
     }

@@ -24,7 +24,7 @@ inline constexpr double kChi2Mono = 5.991, kChi2Stereo = 7.815;
 
 /// Refines T_cam_world in place (4 rounds of Gauss-Newton, Huber kernel in the first three);
 /// returns the number of inliers. Leaves the pose unchanged when fewer than 3 observations.
-int OptimizePose(const StereoCamera& camera, std::vector<PoseObservation>* observations,
+int OptimizePose(const RectifiedStereo& camera, std::vector<PoseObservation>* observations,
                  Eigen::Isometry3d* T_cam_world);
 
 /// Left-multiplicative SE(3) update exp([omega, upsilon]) * T.

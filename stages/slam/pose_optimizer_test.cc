@@ -7,11 +7,11 @@
 namespace rs {
 namespace {
 
-StereoCamera TestCamera() {
-  StereoCamera c;
-  c.fx = c.fy = 700;
-  c.cx = 600;
-  c.cy = 180;
+RectifiedStereo TestCamera() {
+  RectifiedStereo c;
+  c.f_px = 700;
+  c.cx_px = 600;
+  c.cy_px = 180;
   c.baseline_m = 0.5;
   c.width = 1226;
   c.height = 370;
@@ -19,7 +19,7 @@ StereoCamera TestCamera() {
 }
 
 // Points seen from T_true with exact stereo measurements; 20 % gross outliers.
-std::vector<PoseObservation> MakeObservations(const StereoCamera& cam, const Eigen::Isometry3d& T_cam_world,
+std::vector<PoseObservation> MakeObservations(const RectifiedStereo& cam, const Eigen::Isometry3d& T_cam_world,
                                               std::mt19937* rng, std::vector<bool>* is_outlier) {
   std::uniform_real_distribution<double> ux(-10, 10), uy(-3, 3), uz(4, 40), bad(-30, 30);
   std::vector<PoseObservation> obs;
@@ -28,8 +28,8 @@ std::vector<PoseObservation> MakeObservations(const StereoCamera& cam, const Eig
     const Eigen::Vector3d pc(ux(*rng), uy(*rng), uz(*rng));
     PoseObservation o;
     o.p_world = T_world_cam * pc;
-    o.u = cam.fx * pc.x() / pc.z() + cam.cx;
-    o.v = cam.fy * pc.y() / pc.z() + cam.cy;
+    o.u = cam.f_px * pc.x() / pc.z() + cam.cx_px;
+    o.v = cam.f_px * pc.y() / pc.z() + cam.cy_px;
     o.u_right = i % 3 == 0 ? -1 : o.u - cam.bf() / pc.z();
     o.inv_sigma2 = 1;
     const bool out = i % 5 == 0;
@@ -45,7 +45,7 @@ std::vector<PoseObservation> MakeObservations(const StereoCamera& cam, const Eig
 }
 
 TEST(PoseOptimizer, Nominal) {
-  const StereoCamera cam = TestCamera();
+  const RectifiedStereo cam = TestCamera();
   std::mt19937 rng(3);
   Eigen::Isometry3d T_true = Eigen::Isometry3d::Identity();
   T_true.linear() = Eigen::AngleAxisd(0.3, Eigen::Vector3d(0.2, 1, 0.1).normalized()).toRotationMatrix();

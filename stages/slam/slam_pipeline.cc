@@ -26,7 +26,7 @@ SlamPipeline::~SlamPipeline() {
 
 std::optional<FrameResult> SlamPipeline::Push(int64_t t_ns, const cv::Mat& left, const cv::Mat& right,
                                               const std::optional<PosePrior>& prior) {
-  const StereoCamera& cam = slam_->camera();
+  const RectifiedStereo& cam = slam_->camera();
   if (left.type() != CV_8UC1 || right.type() != CV_8UC1 || left.cols != cam.width || left.rows != cam.height ||
       right.size() != left.size())
     throw std::invalid_argument(fmt::format("SlamPipeline::Push: expected two 8-bit grey {}x{} images, got {}x{} and {}x{}",

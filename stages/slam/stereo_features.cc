@@ -144,7 +144,7 @@ int PatchSad(const cv::Mat& left, const cv::Mat& right, int xl, int xr, int y, i
 
 }  // namespace
 
-StereoFeatures ExtractStereoFeatures(const cv::Mat& left, const cv::Mat& right, const StereoCamera& camera,
+StereoFeatures ExtractStereoFeatures(const cv::Mat& left, const cv::Mat& right, const RectifiedStereo& camera,
                                      const SlamOptions& options, const ScalePyramid& pyramid) {
   OrbFeatures l, r;
   if (options.parallel) {
@@ -158,7 +158,7 @@ StereoFeatures ExtractStereoFeatures(const cv::Mat& left, const cv::Mat& right, 
 }
 
 StereoFeatures MatchStereo(const cv::Mat& left, const cv::Mat& right, OrbFeatures left_features,
-                           const OrbFeatures& right_features, const StereoCamera& camera, const SlamOptions& options,
+                           const OrbFeatures& right_features, const RectifiedStereo& camera, const SlamOptions& options,
                            const ScalePyramid& pyramid) {
   StereoFeatures f;
   f.keypoints = std::move(left_features.keypoints);
@@ -177,7 +177,7 @@ StereoFeatures MatchStereo(const cv::Mat& left, const cv::Mat& right, OrbFeature
     const int y0 = std::max(0, static_cast<int>(std::floor(y - r))), y1 = std::min(rows - 1, static_cast<int>(std::ceil(y + r)));
     for (int yy = y0; yy <= y1; ++yy) row_index[yy].push_back(static_cast<int>(j));
   }
-  const double min_disparity = 0, max_disparity = camera.fx;  // depth >= one baseline
+  const double min_disparity = 0, max_disparity = camera.f_px;  // depth >= one baseline
   constexpr int kW = 5, kL = 5;
   std::vector<std::pair<int, int>> sad_of;  // (sad, feature)
   for (size_t i = 0; i < n; ++i) {

@@ -10,17 +10,10 @@
 #include <opencv2/core/mat.hpp>
 #include <opencv2/core/types.hpp>
 
+#include "formats/rectified_stereo.h"
 #include "stages/slam/slam_options.h"
 
 namespace rs {
-
-/// Rectified stereo pinhole camera (both cameras share the intrinsics; right = left shifted by -baseline in x).
-struct StereoCamera {
-  double fx = 0, fy = 0, cx = 0, cy = 0;  ///< px
-  double baseline_m = 0;                   ///< m
-  int width = 0, height = 0;               ///< px
-  double bf() const { return fx * baseline_m; }  ///< disparity * depth, px m
-};
 
 /// Scale of each pyramid level and the reprojection variance (1 px sigma at level 0).
 struct ScalePyramid {
@@ -63,12 +56,12 @@ struct OrbFeatures {
 /// Stereo matching of a rectified pair's ORB features (the second half of ExtractStereoFeatures):
 /// row-band descriptor match, SAD + parabola sub-pixel disparity, depth.
 StereoFeatures MatchStereo(const cv::Mat& left, const cv::Mat& right, OrbFeatures left_features,
-                           const OrbFeatures& right_features, const StereoCamera& camera, const SlamOptions& options,
+                           const OrbFeatures& right_features, const RectifiedStereo& camera, const SlamOptions& options,
                            const ScalePyramid& pyramid);
 
 /// Features of a rectified pair with stereo depths. Left and right extraction run concurrently when
 /// options.parallel (the result does not depend on it).
-StereoFeatures ExtractStereoFeatures(const cv::Mat& left, const cv::Mat& right, const StereoCamera& camera,
+StereoFeatures ExtractStereoFeatures(const cv::Mat& left, const cv::Mat& right, const RectifiedStereo& camera,
                                      const SlamOptions& options, const ScalePyramid& pyramid);
 
 /// Hamming distance of two 32-byte ORB descriptors.

@@ -274,13 +274,7 @@ StereoSlam::StereoSlam(const StereoCalibration& rectified, const SlamOptions& op
                                             b, rectified.left.fx, rectified.left.width, rectified.left.height));
   Impl& s = *impl_;
   s.opt = options;
-  s.cam.fx = rectified.left.fx;
-  s.cam.fy = rectified.left.fy;
-  s.cam.cx = rectified.left.cx;
-  s.cam.cy = rectified.left.cy;
-  s.cam.baseline_m = b;
-  s.cam.width = rectified.left.width;
-  s.cam.height = rectified.left.height;
+  s.cam = RectifiedStereoOf(rectified);  // one focal length: fx of the rectified pair
   s.pyr = ScalePyramid(options.pyramid_levels, options.scale_factor);
   s.close_depth_m = options.close_depth_baselines * b;
 }
@@ -296,7 +290,7 @@ FrameResult StereoSlam::Track(int64_t t_ns, StereoFeatures features, const std::
   return impl_->Track(t_ns, std::move(features), prior);
 }
 
-const StereoCamera& StereoSlam::camera() const { return impl_->cam; }
+const RectifiedStereo& StereoSlam::camera() const { return impl_->cam; }
 const SlamOptions& StereoSlam::options() const { return impl_->opt; }
 const ScalePyramid& StereoSlam::pyramid() const { return impl_->pyr; }
 

@@ -107,7 +107,7 @@ class StereoSlam {
   /// (SlamPipeline). Same result as the image overload. Throws std::invalid_argument when times do not increase.
   FrameResult Track(int64_t t_ns, StereoFeatures features, const std::optional<PosePrior>& prior);
 
-  const StereoCamera& camera() const;   ///< the rectified camera the features must be computed for
+  const RectifiedStereo& camera() const;   ///< the rectified camera the features must be computed for
   const SlamOptions& options() const;   ///< the options given to the constructor
   const ScalePyramid& pyramid() const;  ///< scale pyramid of the options
 

@@ -13,9 +13,8 @@
 namespace rs {
 
 namespace {
-// An offset is applied only when it is known to 0.03 px (a KITTI clip's 23 keyframes with keyframe
-// triangulation: 0.027-0.029 px) and differs from zero by 3 standard errors (a rig without offset
-// keeps its measurements untouched).
+// An offset is applied only when it is known to 0.03 px and differs from zero by 3 standard errors
+// (a rig without offset keeps its measurements untouched).
 constexpr double kMaxSigmaPx = 0.03;
 constexpr double kMinSignificance = 3;
 constexpr int kMinSamples = 300;

@@ -63,7 +63,7 @@ struct StereoSlam::Impl {
   using FrameRecord = stereo_slam_internal::FrameRecord;
 
   SlamOptions opt;
-  StereoCamera cam;
+  RectifiedStereo cam;
   ScalePyramid pyr;
   SlamMap map;
   double close_depth_m = 0;  // close_depth_baselines x baseline (a frame's own limit: CloseDepthLimit)
@@ -121,7 +121,7 @@ struct StereoSlam::Impl {
   // Shared by tracking and mapping.
   Eigen::Vector3d Backproject(const StereoFeatures& f, int i) const {
     const double z = f.depth_m[i];
-    return {(f.keypoints[i].pt.x - cam.cx) * z / cam.fx, (f.keypoints[i].pt.y - cam.cy) * z / cam.fy, z};
+    return {(f.keypoints[i].pt.x - cam.cx_px) * z / cam.f_px, (f.keypoints[i].pt.y - cam.cy_px) * z / cam.f_px, z};
   }
 };
 

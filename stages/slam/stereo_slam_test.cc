@@ -58,7 +58,7 @@ TEST(StereoFeatures, DisparityOffset) {
   cv::GaussianBlur(left, left, cv::Size(0, 0), 1.2);
   cv::Mat right = cv::Mat::zeros(left.size(), CV_8UC1);
   left.colRange(9, left.cols).copyTo(right.colRange(0, left.cols - 9));
-  StereoCamera cam{300, 300, 160, 120, 0.2, 320, 240};
+  const RectifiedStereo cam{.f_px = 300, .cx_px = 160, .cy_px = 120, .baseline_m = 0.2, .width = 320, .height = 240};
   for (double offset : {0.0, 0.3}) {
     SlamOptions opt;
     opt.features = 400;

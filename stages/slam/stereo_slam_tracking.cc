@@ -19,7 +19,7 @@ namespace rs {
 // ORB-SLAM2 trusts stereo depths below close_depth_baselines and makes at least the 100 nearest
 // points per keyframe. A nadir view from altitude has every point beyond that (25 m over a 0.3 m
 // baseline is 83 baselines), all at about one depth and so of about one precision: 100 points per
-// keyframe could not follow 24 px of image motion per frame (drone-high lost tracking four times).
+// keyframe cannot follow fast image motion.
 // So when fewer than those 100 features are close, the nearest min_close_points count as close. A
 // view with a near field (KITTI: hundreds of close points) keeps the plain rule.
 double StereoSlam::Impl::CloseDepthLimit(const StereoFeatures& f) const {
@@ -130,7 +130,7 @@ int StereoSlam::Impl::MatchFromLast(TrackFrame* cur, double radius_factor) {
     const Eigen::Vector3d pw = last.mp[i] >= 0 ? map.points[last.mp[i]].p_world : last.p_world[i];
     const Eigen::Vector3d pc = cur->T_cam_world * pw;
     if (pc.z() <= 0) continue;
-    const double u = cam.fx * pc.x() / pc.z() + cam.cx, v = cam.fy * pc.y() / pc.z() + cam.cy;
+    const double u = cam.f_px * pc.x() / pc.z() + cam.cx_px, v = cam.f_px * pc.y() / pc.z() + cam.cy_px;
     if (u < 0 || v < 0 || u >= cam.width || v >= cam.height) continue;
     const double ur = u - cam.bf() / pc.z();
     const int level = last.f.keypoints[i].octave;
@@ -193,7 +193,7 @@ bool StereoSlam::Impl::RelocaliseAgainst(TrackFrame* cur, int kf_id) {
     pairs.emplace_back(static_cast<int>(i), p);
   }
   if (pairs.size() < 15) return false;
-  cv::Mat K = (cv::Mat_<double>(3, 3) << cam.fx, 0, cam.cx, 0, cam.fy, cam.cy, 0, 0, 1);
+  cv::Mat K = (cv::Mat_<double>(3, 3) << cam.f_px, 0, cam.cx_px, 0, cam.f_px, cam.cy_px, 0, 0, 1);
   cv::Mat rvec, tvec;
   std::vector<int> inliers;
   cv::theRNG().state = opt.ransac_seed;  // solvePnPRansac draws from OpenCV's RNG: fix it
@@ -269,7 +269,7 @@ int StereoSlam::Impl::TrackLocalMap(TrackFrame* cur, double th) {
       if (mp.bad) continue;
       const Eigen::Vector3d pc = cur->T_cam_world * mp.p_world;
       if (pc.z() <= 0) continue;
-      const double u = cam.fx * pc.x() / pc.z() + cam.cx, v = cam.fy * pc.y() / pc.z() + cam.cy;
+      const double u = cam.f_px * pc.x() / pc.z() + cam.cx_px, v = cam.f_px * pc.y() / pc.z() + cam.cy_px;
       if (u < 0 || v < 0 || u >= cam.width || v >= cam.height) continue;
       const Eigen::Vector3d ray = mp.p_world - center;
       const double dist = ray.norm();
