@@ -8,6 +8,7 @@
 #include "formats/stereo/calibration_yaml.h"
 #include "formats/stereo/image_io.h"
 #include "formats/disparity/disparity_io.h"
+#include "formats/rectified_stereo.h"
 #include "survey/atomic_file.h"
 
 namespace rs {
