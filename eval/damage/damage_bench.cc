@@ -10,7 +10,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "sim/synthetic_damage_scene.h"
-#include "stages/damage/damage_output.h"
+#include "stages/damage/output/damage_output.h"
 #include "stages/damage/damage_pipeline.h"
 
 namespace rs {

@@ -8,7 +8,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "sim/synthetic_damage_scene.h"
-#include "stages/damage/damage_output.h"
+#include "stages/damage/output/damage_output.h"
 #include "stages/damage/damage_pipeline.h"
 
 namespace rs {

@@ -2,7 +2,7 @@
 
 #include "formats/geojson/geojson.h"
 #include "formats/input_error.h"
-#include "stages/damage/measure.h"
+#include "stages/damage/measure/measure.h"
 #include "survey/stats/order_statistic.h"
 #include "eval/damage/sim_truth.h"
 #include "survey/atomic_file.h"

@@ -2,8 +2,8 @@
 
 #include "formats/geojson/geojson.h"
 #include "formats/input_error.h"
-#include "stages/damage/damage_output.h"
-#include "stages/damage/measure.h"
+#include "stages/damage/output/damage_output.h"
+#include "stages/damage/measure/measure.h"
 #include "survey/stats/order_statistic.h"
 #include "eval/damage/sim_truth.h"
 #include "sim/road_scene.h"

@@ -1,17 +1,17 @@
 #include "stages/damage/damage_pipeline.h"
 
-#include "stages/damage/cracks.h"
-#include "stages/damage/damage_output.h"
-#include "stages/damage/floor_visibility.h"
-#include "stages/damage/image_edges.h"
-#include "stages/damage/measure.h"
+#include "stages/damage/cracks/cracks.h"
+#include "stages/damage/output/damage_output.h"
+#include "stages/damage/measure/floor_visibility.h"
+#include "stages/damage/noise/image_edges.h"
+#include "stages/damage/measure/measure.h"
 #include "survey/stats/order_statistic.h"
-#include "stages/damage/relief_noise.h"
-#include "stages/damage/relief_smooth.h"
-#include "stages/damage/road_islands.h"
-#include "stages/damage/severity.h"
-#include "stages/damage/sharp_disparity.h"
-#include "stages/damage/two_sided_noise.h"
+#include "stages/damage/noise/relief_noise.h"
+#include "stages/damage/road/relief_smooth.h"
+#include "stages/damage/road/road_islands.h"
+#include "stages/damage/grade/severity.h"
+#include "stages/damage/measure/sharp_disparity.h"
+#include "stages/damage/noise/two_sided_noise.h"
 
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>

@@ -5,8 +5,8 @@
 
 #include "stages/damage/damage_options.h"
 #include "stages/damage/damage_types.h"
-#include "stages/damage/road_surface.h"
-#include "stages/damage/segmentation.h"
+#include "stages/damage/road/road_surface.h"
+#include "stages/damage/segment/segmentation.h"
 
 #include <opencv2/core.hpp>
 
