@@ -1,6 +1,8 @@
 #pragma once
 // Options of the damage algorithms, registered once (survey/options.h) so the
 // stage glue derives the survey.json keys, CLI flags and schema from them.
+// Checked once where they enter (the stage's options, DetectDamage's callers,
+// SegmentTransformedDisparity): the per-frame and per-instance functions take them checked.
 
 #include "survey/options.h"
 

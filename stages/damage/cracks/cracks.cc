@@ -238,7 +238,6 @@ void RemoveStaircases(cv::Mat& skel) {
 }  // namespace
 
 cv::Mat CrackResponse(const cv::Mat& image, const CrackOptions& o, const cv::Mat& pixel_size_m) {
-  o.Check();
   const cv::Mat grey = Grey(image);
   if (!pixel_size_m.empty() && (pixel_size_m.size() != grey.size() || pixel_size_m.type() != CV_32FC1))
     throw std::invalid_argument("CrackResponse: pixel sizes must be CV_32F of the image's size");
@@ -247,7 +246,6 @@ cv::Mat CrackResponse(const cv::Mat& image, const CrackOptions& o, const cv::Mat
 
 CrackDetection DetectCracks(const cv::Mat& image, const cv::Mat& road_mask, const cv::Mat& exclude,
                             const cv::Mat& pixel_size_m, const CrackOptions& o, const cv::Mat& precomputed) {
-  o.Check();
   if (image.empty() || image.depth() != CV_8U || (image.channels() != 1 && image.channels() != 3))
     throw std::invalid_argument("DetectCracks: image must be 8-bit grey or BGR");
   if (!precomputed.empty() && (precomputed.size() != image.size() || precomputed.type() != CV_8UC1))

@@ -101,7 +101,6 @@ SeverityGrade GradeFhwaCrack(double width, const SeverityOptions& o) {
 }
 
 void GradeInstance(DamageInstance& d, const SeverityOptions& o) {
-  o.Check();
   d.astm = {};
   d.fhwa = {};
   if (d.type == DamageType::kCrack) {

@@ -723,7 +723,6 @@ std::vector<DamageInstance> MeasureDepressions(const cv::Mat& labels, const Road
   if (!volume_depth.empty() && (volume_depth.type() != CV_32FC1 || volume_depth.size() != labels.size()))
     throw std::invalid_argument("MeasureDepressions: volume_depth_below_mm must be CV_32F of the labels' size");
   const double fb = g.f_px * g.baseline_m;
-  o.Check();
   const cv::Mat area = PixelAreaOnRoad(r, g, s);
   double maxv = 0;
   cv::minMaxLoc(labels, nullptr, &maxv);

@@ -12,6 +12,11 @@
 
 namespace rs {
 
+/// Road samples farther than this many frame σ above the road are structure (an obstacle's
+/// smoothed fringe, the model bent beside it), not matching noise: the `max_ratio` the damage
+/// stage passes to its noise maps.
+inline constexpr double kStructureSigmaRatio = 40.0;
+
 /// Per-pixel robust noise σ of `value` (CV_32F) over `valid` (CV_8U), in the units of `value`:
 /// per cell of `cell_px`, the median of (x − level) over the valid x above `level` (and below
 /// level + max_ratio·floor_sigma: farther above is structure, e.g. an obstacle's fringe), / 0.6745

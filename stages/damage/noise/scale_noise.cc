@@ -1,5 +1,7 @@
 #include "stages/damage/noise/scale_noise.h"
 
+#include "stages/damage/noise/two_sided_noise.h"
+
 #include "survey/stats/order_statistic.h"
 #include "survey/stats/robust_stats.h"
 
@@ -79,7 +81,7 @@ ScaleNoise MeasureScaleNoise(const cv::Mat& depth_below_mm, const cv::Mat& road,
   out.spike_mm = KthSmallestInPlace(up, QuantileRankNearest(spike_quantile, up.size()));
   const double sigma_up = SigmaOfOneSidedMedian(LowerMedianInPlace(up));
   const double sigma_down = SigmaOfOneSidedMedian(LowerMedianInPlace(down));
-  out.sigma_mm = std::max(floor_sigma_mm, TwoSidedSigma(sigma_up, sigma_down, 2.0));
+  out.sigma_mm = std::max(floor_sigma_mm, TwoSidedSigma(sigma_up, sigma_down, kMatchingNoiseMaxAsymmetry));
   return out;
 }
 

@@ -12,6 +12,10 @@
 
 namespace rs {
 
+/// Matching noise errs both ways, so its spreads above and below the road agree within this
+/// factor; a spread above beyond it is a rise of the road, not noise (the `max_asymmetry`).
+inline constexpr double kMatchingNoiseMaxAsymmetry = 2.0;
+
 /// Per-pixel min(σ_up, max_asymmetry · σ_down): `noise_up` is LocalReliefNoise(value, valid, level,
 /// cell_px, floor_sigma, max_ratio) (the spread above `level`), σ_down the same for the samples
 /// below `level` (mirrored; samples deeper than max_ratio·floor_sigma are damage, not noise; cells
@@ -29,7 +33,7 @@ namespace rs {
 /// Throws std::invalid_argument as LocalReliefNoise, when noise_up or instances differ from value
 /// in size or type, or when max_asymmetry < 1.
 cv::Mat TwoSidedReliefNoise(const cv::Mat& noise_up, const cv::Mat& value, const cv::Mat& valid, double level,
-                            int cell_px, double floor_sigma, double max_ratio, double max_asymmetry = 2.0,
+                            int cell_px, double floor_sigma, double max_ratio, double max_asymmetry = kMatchingNoiseMaxAsymmetry,
                             const cv::Mat& instances = cv::Mat());
 
 }  // namespace rs

@@ -305,7 +305,6 @@ double EnergyThresholdSigma(const cv::Mat& z, const cv::Mat& valid, const Segmen
 DepressionSegmentation SegmentDepressions(const ReliefImage& relief, const SegmentOptions& o,
                                           const cv::Mat& pixel_area_m2, std::optional<ReliefScale> scale,
                                           const cv::Mat& noise_sigma, const cv::Mat& noisy_class) {
-  o.Check();
   if (relief.value.type() != CV_32FC1 || relief.valid.type() != CV_8UC1 || relief.value.size() != relief.valid.size())
     throw std::invalid_argument("SegmentDepressions: relief must be CV_32F with a CV_8U mask of the same size");
   if (!pixel_area_m2.empty() && (pixel_area_m2.type() != CV_32FC1 || pixel_area_m2.size() != relief.value.size()))
