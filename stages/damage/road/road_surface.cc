@@ -100,29 +100,35 @@ double RoadSurface::RayDepth(const RectifiedStereo& g, double u, double v) const
   return z > 0 ? z : kNaN;
 }
 
-RoadSurface FitRoadSurface(const cv::Mat& disparity_px, const RectifiedStereo& g, const RoadModelOptions& o) {
-  if (!g.Valid()) throw std::invalid_argument("road surface: stereo geometry needs f > 0 and baseline > 0");
-  if (disparity_px.type() != CV_32FC1) throw std::invalid_argument("road surface: disparity must be CV_32FC1");
-  o.Check();
+namespace {
 
+// The fit's samples: camera points of the valid disparities on a grid of `stride` px.
+struct RoadSamples {
   std::vector<Eigen::Vector3d> pts;
   // The sample's cell on the fit grid (pixel / stride), row-major; int, not cv::Point: half the
-  // memory, below malloc's mmap threshold (a 200 kB block cost 3-10 ms a frame in page faults
-  // of the later images).
-  const int gw = (disparity_px.cols + o.fit_stride_px - 1) / o.fit_stride_px;
-  const int gh = (disparity_px.rows + o.fit_stride_px - 1) / o.fit_stride_px;
+  // memory, below malloc's mmap threshold (a large block page-faults in the later images).
   std::vector<int> cell;
-  for (int v = 0; v < disparity_px.rows; v += o.fit_stride_px) {
+  int gw = 0, gh = 0;  // grid size
+};
+
+RoadSamples SampleRoad(const cv::Mat& disparity_px, const RectifiedStereo& g, int stride) {
+  RoadSamples rs;
+  rs.gw = (disparity_px.cols + stride - 1) / stride;
+  rs.gh = (disparity_px.rows + stride - 1) / stride;
+  for (int v = 0; v < disparity_px.rows; v += stride) {
     const float* row = disparity_px.ptr<float>(v);
-    for (int u = 0; u < disparity_px.cols; u += o.fit_stride_px)
+    for (int u = 0; u < disparity_px.cols; u += stride)
       if (ValidDisparity(row[u])) {
-        pts.push_back(CameraPointFromDisparity(g, u, v, row[u]));
-        cell.push_back(v / o.fit_stride_px * gw + u / o.fit_stride_px);
+        rs.pts.push_back(CameraPointFromDisparity(g, u, v, row[u]));
+        rs.cell.push_back(v / stride * rs.gw + u / stride);
       }
   }
-  if (pts.size() < 50) throw std::invalid_argument("road surface: fewer than 50 valid disparities to fit");
+  return rs;
+}
 
-  // 1. Dominant plane by RANSAC, scored on a fixed random subset (speed).
+// 1. The dominant plane by RANSAC, scored on a fixed random subset (speed), refined by least
+// squares through its inliers: the surface's frame, with zero coefficients.
+RoadSurface DominantPlane(const std::vector<Eigen::Vector3d>& pts, const RoadModelOptions& o) {
   std::mt19937 rng(o.random_seed);
   std::vector<int> subset;
   {
@@ -172,117 +178,158 @@ RoadSurface FitRoadSurface(const cv::Mat& disparity_px, const RectifiedStereo& g
   for (int i : inl) spread += (pts[i] - centroid).squaredNorm();
   s.scale_m = std::max(1e-3, std::sqrt(spread / static_cast<double>(inl.size())));
   s.points_used = static_cast<int>(pts.size());
+  return s;
+}
 
-  // 2. Obstacles first (far above the current model), then the Tukey-IRLS quadratic; twice, so a
-  //    curved road is judged against the curved model, not the plane.
-  // The monomials of each sample's plane coordinates, computed once for every IRLS pass (built
-  // in a temporary each time, they went through the stack: store-forwarding stalls).
-  std::vector<Eigen::Matrix<double, 6, 1>> mono(pts.size());
-  std::vector<double> h(pts.size());
-  for (size_t i = 0; i < pts.size(); ++i) {
-    const Eigen::Vector3d r = pts[i] - s.origin_m;
-    mono[i] = Monomials(s.e1.dot(r) / s.scale_m, s.e2.dot(r) / s.scale_m);
-    h[i] = s.normal.dot(r);
-  }
-  std::vector<char> obstacle(pts.size(), 0);
-  std::vector<double> w(pts.size(), 1.0), res(pts.size());
-  double sigma = o.min_noise_m;
-  std::vector<double> absr;  // one buffer for every IRLS pass (200 kB: a fresh one page-faults)
-  absr.reserve(pts.size());
-  // `offroad` samples take no part in the fit (they are not flagged obstacles).
-  auto fit = [&](const std::vector<char>& offroad, bool whole_region) {
-    s.coeffs.setZero();
-    for (int round = 0; round < 2; ++round) {
-      for (size_t i = 0; i < pts.size(); ++i) {
-        res[i] = h[i] - s.coeffs.dot(mono[i]);
-        obstacle[i] = res[i] > o.obstacle_height_m;
-        // Start each round from the band inliers: damage and obstacles start with zero weight. The
-        // first round starts wider, so both lanes of a crowned (roof-shaped) road take part even
-        // when RANSAC's plane followed one of them.
-        const double band = round == 0 ? (whole_region ? kInf : 2.0 * o.ransac_inlier_m) : o.ransac_inlier_m;
-        w[i] = !obstacle[i] && !offroad[i] && std::abs(res[i]) < band ? 1.0 : 0.0;
-      }
-      for (int it = 0; it < o.irls_iterations; ++it) {
-        Eigen::Matrix<double, 6, 6> AtA = Eigen::Matrix<double, 6, 6>::Zero();
-        Eigen::Matrix<double, 6, 1> Atb = Eigen::Matrix<double, 6, 1>::Zero();
-        for (size_t i = 0; i < pts.size(); ++i) {
-          if (w[i] <= 0) continue;
-          const auto& m = mono[i];
-          // AtA.selfadjointView<Lower>().rankUpdate(m, w[i]), written out: Eigen's is an
-          // out-of-line call per sample (the same operations: column j += (w·m_j)·m_j..5).
-          double* a = AtA.data();
-          for (int j = 0; j < 6; ++j) {
-            const double wm = w[i] * m[j];
-            for (int k = j; k < 6; ++k) a[6 * j + k] += wm * m[k];
-          }
-          Atb += w[i] * h[i] * m;
-        }
-        AtA = AtA.selfadjointView<Eigen::Lower>();
-        s.coeffs = AtA.ldlt().solve(Atb);
-        absr.clear();
-        for (size_t i = 0; i < pts.size(); ++i) {
-          res[i] = h[i] - s.coeffs.dot(mono[i]);
-          if (!obstacle[i] && w[i] > 0) absr.push_back(std::abs(res[i]));
-        }
-        // First round: scale floored at the plane band (a wide Tukey window, graduated
-        // non-convexity); the second round shrinks to the data's own spread.
-        sigma = std::max(round == 0 ? o.ransac_inlier_m : o.min_noise_m, absr.empty() ? kNaN : RobustSigmaOfAbs(absr));
-        for (size_t i = 0; i < pts.size(); ++i) {
-          if (obstacle[i] || offroad[i]) { w[i] = 0; continue; }
-          const double x = res[i] / (kTukeyC * sigma);
-          w[i] = std::abs(x) < 1 ? (1 - x * x) * (1 - x * x) : 0.0;
-        }
-      }
+// 2. Obstacles first (far above the current model), then the Tukey-IRLS quadratic; twice, so a
+//    curved road is judged against the curved model, not the plane.
+class QuadraticRoadFit {
+ public:
+  QuadraticRoadFit(const std::vector<Eigen::Vector3d>& pts, RoadSurface& s, const RoadModelOptions& o)
+      : s_(s), o_(o), mono(pts.size()), h(pts.size()), obstacle(pts.size(), 0), w(pts.size(), 1.0),
+        res(pts.size()), sigma(o.min_noise_m) {
+    // The monomials of each sample's plane coordinates, computed once for every IRLS pass (built
+    // in a temporary each time, they went through the stack: store-forwarding stalls).
+    for (size_t i = 0; i < pts.size(); ++i) {
+      const Eigen::Vector3d r = pts[i] - s.origin_m;
+      mono[i] = Monomials(s.e1.dot(r) / s.scale_m, s.e2.dot(r) / s.scale_m);
+      h[i] = s.normal.dot(r);
     }
-  };
-  std::vector<char> offroad(pts.size(), 0);
-  fit(offroad, false);
-  // 3. Road regions cut off from the main one by obstacles: beside a car parked at the kerb, the
-  //    raised pavement beyond it is such a region, and the road between it and the car is hidden,
-  //    so the quadratic bent up to the pavement and lay 40-110 mm above the kerb-side lane. Fit the
-  //    largest region alone, then let the others back only where they agree with it.
+    absr.reserve(pts.size());
+  }
+
+  // Fits s_.coeffs; `offroad` samples take no part in the fit (they are not flagged obstacles).
+  void Fit(const std::vector<char>& offroad, bool whole_region) {
+    s_.coeffs.setZero();
+    for (int round = 0; round < 2; ++round) {
+      StartRound(offroad, whole_region, round);
+      for (int it = 0; it < o_.irls_iterations; ++it) IrlsStep(offroad, round);
+    }
+  }
+
+  double Residual(size_t i) const { return h[i] - s_.coeffs.dot(mono[i]); }
+
+ private:
+  // Start each round from the band inliers: damage and obstacles start with zero weight. The
+  // first round starts wider, so both lanes of a crowned (roof-shaped) road take part even
+  // when RANSAC's plane followed one of them.
+  void StartRound(const std::vector<char>& offroad, bool whole_region, int round) {
+    for (size_t i = 0; i < h.size(); ++i) {
+      res[i] = h[i] - s_.coeffs.dot(mono[i]);
+      obstacle[i] = res[i] > o_.obstacle_height_m;
+      const double band = round == 0 ? (whole_region ? kInf : 2.0 * o_.ransac_inlier_m) : o_.ransac_inlier_m;
+      w[i] = !obstacle[i] && !offroad[i] && std::abs(res[i]) < band ? 1.0 : 0.0;
+    }
+  }
+
+  void IrlsStep(const std::vector<char>& offroad, int round) {
+    Eigen::Matrix<double, 6, 6> AtA = Eigen::Matrix<double, 6, 6>::Zero();
+    Eigen::Matrix<double, 6, 1> Atb = Eigen::Matrix<double, 6, 1>::Zero();
+    for (size_t i = 0; i < h.size(); ++i) {
+      if (w[i] <= 0) continue;
+      const auto& m = mono[i];
+      // AtA.selfadjointView<Lower>().rankUpdate(m, w[i]), written out: Eigen's is an
+      // out-of-line call per sample (the same operations: column j += (w·m_j)·m_j..5).
+      double* a = AtA.data();
+      for (int j = 0; j < 6; ++j) {
+        const double wm = w[i] * m[j];
+        for (int k = j; k < 6; ++k) a[6 * j + k] += wm * m[k];
+      }
+      Atb += w[i] * h[i] * m;
+    }
+    AtA = AtA.selfadjointView<Eigen::Lower>();
+    s_.coeffs = AtA.ldlt().solve(Atb);
+    absr.clear();
+    for (size_t i = 0; i < h.size(); ++i) {
+      res[i] = h[i] - s_.coeffs.dot(mono[i]);
+      if (!obstacle[i] && w[i] > 0) absr.push_back(std::abs(res[i]));
+    }
+    // First round: scale floored at the plane band (a wide Tukey window, graduated
+    // non-convexity); the second round shrinks to the data's own spread.
+    sigma = std::max(round == 0 ? o_.ransac_inlier_m : o_.min_noise_m, absr.empty() ? kNaN : RobustSigmaOfAbs(absr));
+    for (size_t i = 0; i < h.size(); ++i) {
+      if (obstacle[i] || offroad[i]) { w[i] = 0; continue; }
+      const double x = res[i] / (kTukeyC * sigma);
+      w[i] = std::abs(x) < 1 ? (1 - x * x) * (1 - x * x) : 0.0;
+    }
+  }
+
+  RoadSurface& s_;
+  const RoadModelOptions& o_;
+
+ public:
+  std::vector<Eigen::Matrix<double, 6, 1>> mono;
+  std::vector<double> h;
+  std::vector<char> obstacle;
+  std::vector<double> w, res;
+  double sigma;
+  std::vector<double> absr;  // one buffer for every IRLS pass (a fresh one page-faults)
+};
+
+// 3. Road regions cut off from the main one by obstacles: beside a car parked at the kerb, the
+//    raised pavement beyond it is such a region, and the road between it and the car is hidden,
+//    so the quadratic bent up to the pavement. Fit the largest region alone, then let the others
+//    back only where they agree with it.
+void RefitMainRegion(const RoadSamples& rs, QuadraticRoadFit& fit, std::vector<char>& offroad,
+                     const RoadModelOptions& o) {
+  const std::vector<Eigen::Vector3d>& pts = rs.pts;
+  const std::vector<int>& cell = rs.cell;
+  const int gw = rs.gw;
   // Grid of residuals about the first fit; a jump of more than the obstacle height between
   // neighbouring samples (a kerb face) separates regions like an obstacle does.
-  cv::Mat road_cells(gh, gw, CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+  cv::Mat road_cells(rs.gh, gw, CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
   for (size_t i = 0; i < pts.size(); ++i)
-    if (!obstacle[i]) road_cells.at<float>(cell[i] / gw, cell[i] % gw) = static_cast<float>(res[i]);
+    if (!fit.obstacle[i]) road_cells.at<float>(cell[i] / gw, cell[i] % gw) = static_cast<float>(fit.res[i]);
   int n_labels = 0;
   const cv::Mat labels = LabelSmoothRegions(road_cells, static_cast<float>(o.obstacle_height_m), &n_labels);
   const int n_regions = n_labels + 1;  // with the empty label 0
   std::vector<int> area(n_regions, 0);
   std::vector<double> weight(n_regions, 0.0);
   for (size_t i = 0; i < pts.size(); ++i)
-    if (!obstacle[i]) ++area[labels.at<int>(cell[i] / gw, cell[i] % gw)], weight[labels.at<int>(cell[i] / gw, cell[i] % gw)] += w[i];
+    if (!fit.obstacle[i]) ++area[labels.at<int>(cell[i] / gw, cell[i] % gw)], weight[labels.at<int>(cell[i] / gw, cell[i] % gw)] += fit.w[i];
   int main_region = 1;
   for (int k = 2; k < n_regions; ++k)
     if (area[k] > area[main_region]) main_region = k;
   // Only regions that took part in the fit can have bent it (a pothole's floor, cut off by its
   // walls, had no weight): otherwise the fit stands, and no time is spent.
   const double total_weight = std::accumulate(weight.begin(), weight.end(), 0.0);
-  if (n_regions > 2 && total_weight - weight[main_region] > 0.01 * total_weight) {
-    std::vector<int> region(pts.size(), 0);
-    for (size_t i = 0; i < pts.size(); ++i) {
-      region[i] = obstacle[i] ? 0 : labels.at<int>(cell[i] / gw, cell[i] % gw);
-      offroad[i] = region[i] != 0 && region[i] != main_region;
-    }
-    fit(offroad, true);
-    // A region rejoins when its median height about the main region's surface is within the
-    // plane band (it is the same road seen past an obstacle).
-    std::vector<std::vector<double>> r_of(n_regions);
-    for (size_t i = 0; i < pts.size(); ++i)
-      if (offroad[i]) r_of[region[i]].push_back(h[i] - s.coeffs.dot(mono[i]));
-    bool rejoined = false;
-    for (int k = 1; k < n_regions; ++k)
-      if (!r_of[k].empty() && std::abs(LowerMedianInPlace(r_of[k])) < o.ransac_inlier_m) {
-        rejoined = true;
-        for (size_t i = 0; i < pts.size(); ++i)
-          if (region[i] == k) offroad[i] = 0;
-      }
-    if (rejoined) fit(offroad, true);
+  if (!(n_regions > 2 && total_weight - weight[main_region] > 0.01 * total_weight)) return;
+  std::vector<int> region(pts.size(), 0);
+  for (size_t i = 0; i < pts.size(); ++i) {
+    region[i] = fit.obstacle[i] ? 0 : labels.at<int>(cell[i] / gw, cell[i] % gw);
+    offroad[i] = region[i] != 0 && region[i] != main_region;
   }
-  s.residual_sigma_m = sigma;
-  s.inliers = static_cast<int>(std::count_if(w.begin(), w.end(), [](double x) { return x > 0; }));
-  s.obstacle_points = static_cast<int>(std::count(obstacle.begin(), obstacle.end(), 1));
+  fit.Fit(offroad, true);
+  // A region rejoins when its median height about the main region's surface is within the
+  // plane band (it is the same road seen past an obstacle).
+  std::vector<std::vector<double>> r_of(n_regions);
+  for (size_t i = 0; i < pts.size(); ++i)
+    if (offroad[i]) r_of[region[i]].push_back(fit.Residual(i));
+  bool rejoined = false;
+  for (int k = 1; k < n_regions; ++k)
+    if (!r_of[k].empty() && std::abs(LowerMedianInPlace(r_of[k])) < o.ransac_inlier_m) {
+      rejoined = true;
+      for (size_t i = 0; i < pts.size(); ++i)
+        if (region[i] == k) offroad[i] = 0;
+    }
+  if (rejoined) fit.Fit(offroad, true);
+}
+
+}  // namespace
+
+RoadSurface FitRoadSurface(const cv::Mat& disparity_px, const RectifiedStereo& g, const RoadModelOptions& o) {
+  if (!g.Valid()) throw std::invalid_argument("road surface: stereo geometry needs f > 0 and baseline > 0");
+  if (disparity_px.type() != CV_32FC1) throw std::invalid_argument("road surface: disparity must be CV_32FC1");
+  const RoadSamples samples = SampleRoad(disparity_px, g, o.fit_stride_px);
+  if (samples.pts.size() < 50) throw std::invalid_argument("road surface: fewer than 50 valid disparities to fit");
+  RoadSurface s = DominantPlane(samples.pts, o);
+  QuadraticRoadFit fit(samples.pts, s, o);
+  std::vector<char> offroad(samples.pts.size(), 0);
+  fit.Fit(offroad, false);
+  RefitMainRegion(samples, fit, offroad, o);
+  s.residual_sigma_m = fit.sigma;
+  s.inliers = static_cast<int>(std::count_if(fit.w.begin(), fit.w.end(), [](double x) { return x > 0; }));
+  s.obstacle_points = static_cast<int>(std::count(fit.obstacle.begin(), fit.obstacle.end(), 1));
   return s;
 }
 
