@@ -135,19 +135,22 @@ Completion CompleteHidden(const std::vector<std::pair<double, double>>& seen, do
   return c;
 }
 
-}  // namespace
 
-FloorVisibility AnalyseFloorVisibility(const cv::Mat& labels, int id, const cv::Rect& box, const RoadRelief& r,
-                                       const RectifiedStereo& g, const RoadSurface& s, const MeasureOptions& o,
-                                       double max_depth_m, double volume_m3, double area_m2, double sigma_depth_m) {
-  FloorVisibility out;
-  if (!(max_depth_m > 0) || box.empty()) return out;
-  const Eigen::Vector3d n = s.normal;  // unit, towards the camera
-  const Eigen::Vector3d foot = n.dot(s.origin_m) * n;  // the camera centre (origin) dropped onto the plane
+// The instance's pixels as rays: where each crosses the road, its horizontal offset from the
+// camera's foot on the plane, and the sums the analysis averages.
+struct RayCloud {
   std::vector<RayPoint> pts;
   std::vector<Eigen::Vector3d> horizontal;
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();
   double z_sum = 0, n_dot_ray_sum = 0;
+};
+
+RayCloud CollectRays(const cv::Mat& labels, int id, const cv::Rect& box, const RoadRelief& r, const RectifiedStereo& g,
+                     const RoadSurface& s) {
+  RayCloud rc;
+  std::vector<RayPoint>& pts = rc.pts;
+  const Eigen::Vector3d n = s.normal;  // unit, towards the camera
+  const Eigen::Vector3d foot = n.dot(s.origin_m) * n;  // the camera centre (origin) dropped onto the plane
   for (int v = box.y; v < box.y + box.height; ++v) {
     const uint16_t* l = labels.ptr<uint16_t>(v);
     const float* zr = r.road_depth_m.ptr<float>(v);
@@ -161,12 +164,79 @@ FloorVisibility AnalyseFloorVisibility(const cv::Mat& labels, int id, const cv::
       const double sin_e = std::abs(n.dot(ray.normalized()));
       const double tan_e = sin_e / std::max(1e-9, std::sqrt(1 - sin_e * sin_e));
       pts.push_back({0, 0, tan_e, std::isfinite(dr[u]) ? dr[u] / 1000.0 : kUnknown});
-      horizontal.push_back(h);
-      mean += h;
-      z_sum += zr[u];
-      n_dot_ray_sum += std::abs(n.dot(ray));
+      rc.horizontal.push_back(h);
+      rc.mean += h;
+      rc.z_sum += zr[u];
+      rc.n_dot_ray_sum += std::abs(n.dot(ray));
     }
   }
+  return rc;
+}
+
+// What the shadows behind the strips' near rims may hide: the depth bound, the hidden volume
+// and its completed estimate, per strip along the view.
+struct HiddenStretches {
+  double bound = 0, hidden_volume = 0, longest = 0, completed_volume = 0;
+  std::vector<double> strip_max;  // completed max depth per strip with a shadow (in strip order)
+};
+
+HiddenStretches CompleteStrips(std::vector<Strip>& strips, double tan_rim, double slope, double cap,
+                               double sigma_height_m, double strip_m, double rim_seen_m) {
+  // The far wall's trend, pooled over the strips (one strip's wall is a handful of rows).
+  std::vector<double> mids, lows;
+  for (Strip& st : strips) {
+    const double d = st.shadow_edge_depth_m;
+    if (!(d > 0) || !(st.tan_rim > 0)) continue;
+    std::sort(st.seen.begin(), st.seen.end());
+    const double x_grazing = st.x_rim + d / st.tan_rim;
+    const double mid = FarWallSlope(st.seen, x_grazing, 0.3 * d, 0.7 * d), low = FarWallSlope(st.seen, x_grazing, 0.7 * d, d);
+    if (mid > 0 && std::isfinite(low)) mids.push_back(mid), lows.push_back(low);
+  }
+  WallTrend trend;
+  if (!mids.empty()) {
+    trend.mid = LowerMedianInPlace(mids), trend.low = LowerMedianInPlace(lows), trend.ray_slope = tan_rim;
+  }
+  HiddenStretches out;
+  for (Strip& st : strips) {
+    const double d = st.shadow_edge_depth_m;
+    if (!(d > 0) || !(st.tan_rim > 0)) continue;
+    const double length = d / st.tan_rim;
+    out.longest = std::max(out.longest, length);
+    // The bound's own noise: d carries the height noise, scaled like the bound.
+    const double gain = std::max(1.0, (slope / st.tan_rim + 1) / 2);
+    const double upper = std::min(cap, gain * (d + 2 * sigma_height_m));
+    out.bound = std::max(out.bound, gain * (d + 2 * sigma_height_m));
+    out.hidden_volume += strip_m * HiddenExtraArea(length, d, slope, upper);
+
+    // The estimate: the opening's ends on the road where the seen surface is 5 % of the max
+    // depth deep (the near one no farther than the rim).
+    double x_near = st.x_rim, x_far = st.x_rim + length;
+    for (const auto& [x, depth] : st.seen)
+      if (depth >= rim_seen_m) x_near = std::min(x_near, x), x_far = std::max(x_far, x);
+    // The estimate's ceiling is the depth bound alone, not the bound's V: the near wall follows
+    // the mirrored far wall even where that is steeper than the bound's slope (an assumption
+    // made for a safe interval; the mirror is what the frame shows). The volume is capped below.
+    const Completion c = CompleteHidden(st.seen, st.x_rim, st.tan_rim, d, x_near, x_far, trend, upper);
+    // The measured volume already holds the shadow triangle d·L/2 (HiddenExtraArea).
+    out.completed_volume += strip_m * std::max(0.0, c.area_m2 - d * length / 2);
+    out.strip_max.push_back(c.max_depth_m);
+  }
+  return out;
+}
+
+}  // namespace
+
+FloorVisibility AnalyseFloorVisibility(const cv::Mat& labels, int id, const cv::Rect& box, const RoadRelief& r,
+                                       const RectifiedStereo& g, const RoadSurface& s, const MeasureOptions& o,
+                                       double max_depth_m, double volume_m3, double area_m2, double sigma_depth_m) {
+  FloorVisibility out;
+  if (!(max_depth_m > 0) || box.empty()) return out;
+  RayCloud rays = CollectRays(labels, id, box, r, g, s);
+  std::vector<RayPoint>& pts = rays.pts;
+  const std::vector<Eigen::Vector3d>& horizontal = rays.horizontal;
+  Eigen::Vector3d& mean = rays.mean;
+  const double z_sum = rays.z_sum, n_dot_ray_sum = rays.n_dot_ray_sum;
+  const Eigen::Vector3d n = s.normal;  // unit, towards the camera
   if (pts.empty()) return out;
   out.analysed = true;
   out.max_depth_estimate_m = max_depth_m, out.volume_estimate_m3 = volume_m3;  // until a shadow says more
@@ -262,47 +332,10 @@ FloorVisibility AnalyseFloorVisibility(const cv::Mat& labels, int id, const cv::
   const double rim_seen_m = 0.05 * max_depth_m;  // the openings' ends: the same depth on both sides
   for (const RayPoint& p : pts)
     if (std::isfinite(p.depth_m)) strip_of(p).seen.emplace_back(p.x + p.depth_m / p.tan_e, p.depth_m);
-  // The far wall's trend, pooled over the strips (one strip's wall is a handful of rows).
-  std::vector<double> mids, lows;
-  for (Strip& st : strips) {
-    const double d = st.shadow_edge_depth_m;
-    if (!(d > 0) || !(st.tan_rim > 0)) continue;
-    std::sort(st.seen.begin(), st.seen.end());
-    const double x_grazing = st.x_rim + d / st.tan_rim;
-    const double mid = FarWallSlope(st.seen, x_grazing, 0.3 * d, 0.7 * d), low = FarWallSlope(st.seen, x_grazing, 0.7 * d, d);
-    if (mid > 0 && std::isfinite(low)) mids.push_back(mid), lows.push_back(low);
-  }
-  WallTrend trend;
-  if (!mids.empty()) {
-    trend.mid = LowerMedianInPlace(mids), trend.low = LowerMedianInPlace(lows), trend.ray_slope = tan_rim;
-  }
-  double bound = 0, hidden_volume = 0, longest = 0, completed_volume = 0;
-  std::vector<double> strip_max;  // completed max depth per strip with a shadow (in strip order)
-  for (Strip& st : strips) {
-    const double d = st.shadow_edge_depth_m;
-    if (!(d > 0) || !(st.tan_rim > 0)) continue;
-    const double length = d / st.tan_rim;
-    longest = std::max(longest, length);
-    // The bound's own noise: d carries the height noise, scaled like the bound.
-    const double gain = std::max(1.0, (slope / st.tan_rim + 1) / 2);
-    const double upper = std::min(cap, gain * (d + 2 * sigma_height_m));
-    bound = std::max(bound, gain * (d + 2 * sigma_height_m));
-    hidden_volume += strip_m * HiddenExtraArea(length, d, slope, upper);
-
-    // The estimate: the opening's ends on the road where the seen surface is 5 % of the max
-    // depth deep (the near one no farther than the rim).
-    double x_near = st.x_rim, x_far = st.x_rim + length;
-    for (const auto& [x, depth] : st.seen)
-      if (depth >= rim_seen_m) x_near = std::min(x_near, x), x_far = std::max(x_far, x);
-    // The estimate's ceiling is the depth bound alone, not the bound's V: the near wall follows
-    // the mirrored far wall even where that is steeper than the bound's slope (an assumption
-    // made for a safe interval; the mirror is what the frame shows; held to 45° the exact
-    // 120 mm cap of the tests lost 14 % of its volume). The volume is capped below.
-    const Completion c = CompleteHidden(st.seen, st.x_rim, st.tan_rim, d, x_near, x_far, trend, upper);
-    // The measured volume already holds the shadow triangle d·L/2 (HiddenExtraArea).
-    completed_volume += strip_m * std::max(0.0, c.area_m2 - d * length / 2);
-    strip_max.push_back(c.max_depth_m);
-  }
+  const HiddenStretches hidden = CompleteStrips(strips, tan_rim, slope, cap, sigma_height_m, strip_m, rim_seen_m);
+  const double bound = hidden.bound, hidden_volume = hidden.hidden_volume, longest = hidden.longest;
+  const double completed_volume = hidden.completed_volume;
+  const std::vector<double>& strip_max = hidden.strip_max;
   out.hidden_length_m = longest;
   const double volume_noise = 2 * sigma_depth_m * area_m2;  // the lower bound's term, stated alike
   // The volume counts as seen when the shadow could hide at most 5 % of it (a third of the
