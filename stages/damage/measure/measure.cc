@@ -4,6 +4,7 @@
 #include "survey/stats/order_statistic.h"
 #include "survey/stats/robust_stats.h"
 #include "stages/damage/noise/scale_noise.h"
+#include "stages/damage/road/relief_smooth.h"
 
 #include <opencv2/imgproc.hpp>
 #include <tbb/parallel_for.h>
@@ -163,14 +164,13 @@ struct RimProfile {
 // Distance (px) from the outer edge of a depression's outline to where its wall meets the road
 // (the support of its depth), from its ring profile (rings outside: the road; inside: the wall's
 // outer part). Model: m(x) = c + a·max(0, x + gap)^p, c the road's level just outside (the ring
-// plane 1-2 bands out misses the local road model's misfit there by ±0.4 mm, which moved a
-// tangential wall's extrapolated edge by ±2 px), p = 1 for a wall meeting the road at an angle (a
+// plane 1-2 bands out misses the local road model's misfit there, which would move a
+// tangential wall's extrapolated edge), p = 1 for a wall meeting the road at an angle (a
 // sharp edge), p = 2 for one leaving it tangentially (a rounded edge: any smooth bowl, the
 // simulator's smoothstep wall). p in [1, 2] (steps of 0.1) and gap in [0, max_gap] (steps of
 // 0.05 px) on a grid, c and a by least squares; the best fit's gap. With p fixed at 1 and c at 0
-// (before: first order from the two innermost rings) a tangential wall kept half its gap; three
-// inner rings alone let their noise decide p (a second difference): a spherical cap's straight
-// wall came out p = 2, +6 %.
+// a tangential wall would keep half its gap; three inner rings alone would let their noise
+// decide p (a second difference).
 double OpeningEdgeGapPx(const RimProfile& r, double max_gap) {
   const int n = static_cast<int>(r.x.size());
   if (n < 3) return 0;
@@ -222,8 +222,8 @@ struct RingSums {
   }
 };
 
-// The two outer inner rings stand 4 σ of a mean clear of the road and of each other (with our
-// disparity unbounded steps grew potholes 20-80 % on noisy slopes): σ of a mean of n pixels of a
+// The two outer inner rings stand 4 σ of a mean clear of the road and of each other (unbounded
+// steps would grow potholes on noisy slopes): σ of a mean of n pixels of a
 // relief smoothed over w × w is σ·w/√n.
 bool WallSignificant(const RingSums& s, double ring_sigma, int window_px) {
   if (s.n_in[0] < 10 || s.n_in[1] < 10) return false;
@@ -333,12 +333,12 @@ void GrowSide(cv::Mat& lab, int id, const cv::Mat& obstacle, const SideScan& sid
   }
 }
 
-// Oblique views (e >= 1.5): the opening's edge side by side, in image scanlines across each side.
+// Oblique views (e >= kObliqueElongation): the opening's edge side by side, in image scanlines across each side.
 // The near rim is an occluding edge: a ray crossing the road just inside it passes over the wall
 // (a wall leaving the road tangentially is steeper than a ray at 15-20° within a millimetre or
 // two of the rim) onto the floor or the far wall, so the depth jumps there and the outline is
-// already exact; a profile across it is no wall's (rings all round, dilated by whole pixels, grew
-// car-view potholes by ~60 %: rows are 3-4 times longer on the road than columns). A side wall is
+// already exact; a profile across it is no wall's (rings all round, dilated by whole pixels,
+// would grow them: rows are several times longer on the road than columns). A side wall is
 // seen about as from above (its ray meets it near where it crosses the road). The far wall faces
 // the camera, but a pixel's depth is that of the point its ray meets after crossing the road, at
 // most tanθ × the run below the road, so the far outline stops about T / tanθ farther inside than
@@ -374,292 +374,357 @@ void ExtendObliqueSides(cv::Mat& lab, int id, const cv::Mat& in0, const cv::Mat&
   GrowSide(lab, id, obstacle, right, false, -1, g_lat);
 }
 
+// One instance's working set for the rim extension: the instance's box padded by its band
+// (views into the labels: writes go to them) and the depths the rim is found on.
+struct RimWindow {
+  int id = 0;
+  double e = 1;       // row elongation at the box's centre (≥ 1)
+  int k = 1;          // rows per road unit (e rounded)
+  int band = 1;       // how far the rim may lie outside the instance, px
+  cv::Rect box;       // the instance's bounding box as segmented, in the frame
+  cv::Mat lab;        // the labels over the window (a view)
+  cv::Mat inst;       // the instance as segmented
+  cv::Mat depth;      // depth below the road, mm
+  cv::Mat obstacle;
+  cv::Mat rim_depth;  // the depth the rim is found on
+  cv::Mat dist;       // outside: distance to the instance (road units)
+  cv::Rect box_in;    // the instance's box + 1 px, in the window
+  cv::Mat depth_in;   // inside (over box_in): distance to the outside
+};
+
+RimWindow OpenRimWindow(cv::Mat& labels, int id, const cv::Rect& box, const RoadRelief& r,
+                        const std::vector<double>& row_elongation, const cv::Mat& raw_depth_below_mm) {
+  RimWindow w;
+  w.id = id, w.box = box;
+  // Distances on the road, in units of a column's width: an oblique view's rows are e times
+  // longer on the road, so a band of whole pixels would reach e times farther along the view
+  // than across (and stop short of a foreshortened pothole's cut-off ends).
+  const int centre = box.y + box.height / 2;
+  const double e = centre < static_cast<int>(row_elongation.size()) ? std::max(1.0, row_elongation[centre]) : 1.0;
+  const int k = std::max(1, static_cast<int>(std::lround(e)));
+  const int count = cv::countNonZero(labels(box) == id);
+  const int band = std::max(1, static_cast<int>(0.3 * std::sqrt(count * k / CV_PI)));
+  const int pad_u = 2 * band + 1, pad_v = 2 * band / k + 1;
+  const cv::Rect roi =
+      cv::Rect(box.x - pad_u, box.y - pad_v, box.width + 2 * pad_u, box.height + 2 * pad_v) & cv::Rect({}, labels.size());
+  w.e = e, w.k = k, w.band = band;
+  w.lab = labels(roi);  // view: writes go to `labels`
+  w.inst = w.lab == id;
+  w.depth = r.depth_below_mm(roi), w.obstacle = r.obstacle_mask(roi);
+  // The rim is found on the unsmoothed depth where given: the relief's box filter spreads a
+  // wall's depth up to half its window onto the road beyond the rim (a halo that grows with the
+  // depth), so on the smoothed relief a threshold low enough to reach the rim of a gently
+  // starting wall also grows steep ones into the road.
+  w.rim_depth = w.depth;
+  if (!raw_depth_below_mm.empty()) {
+    w.rim_depth = raw_depth_below_mm(roi).clone();
+    if (!r.correction_mm.empty()) w.rim_depth -= r.correction_mm(roi);
+  }
+  w.dist = RoadDistance(w.inst == 0, k);  // outside: distance to the instance
+  // Inside: distance to the outside, over the instance's box only (a quarter of the roi's area).
+  w.box_in = cv::Rect(box.x - roi.x - 1, box.y - roi.y - 1, box.width + 2, box.height + 2) & cv::Rect({}, w.lab.size());
+  w.depth_in = RoadDistance(w.inst(w.box_in), k);
+  return w;
+}
+
+// The road's level around an instance and the thresholds the rim is found with.
+struct RimLevel {
+  std::vector<cv::Point3f> ring;  // ring pixels (centred coordinates, depth)
+  RingPlane level;
+  double floor_mm = 0;     // the rim threshold's floor: rim_depth_m, or the fraction of the depth
+  double depth99_mm = 0;   // the instance's 99th-percentile depth
+  double ring_sigma = 0;   // the ring's spread about its plane (smoothed depth)
+  double pixel_sigma = 0;  // the same on the rim depth, per pixel
+  double noise_mm = 0;     // per-pixel threshold above the level
+};
+
+// The road around the instance, a ring one to two bands outside, as a plane: its level is the
+// local road model's misfit there (a crown's ridge, a verge rising beside the lane), its spread
+// the stereo noise. A plane, not one level: beside a verge the road rises across a pothole.
+RimLevel FitRimLevel(const RimWindow& w, double rim_depth_m, double rim_depth_fraction) {
+  const cv::Mat &lab = w.lab, &inst = w.inst, &depth = w.depth, &obstacle = w.obstacle, &dist = w.dist;
+  const cv::Mat& rim_depth = w.rim_depth;
+  const int band = w.band;
+  RimLevel out;
+  std::vector<cv::Point3f>& ring = out.ring;
+  std::vector<float> ring_raw;  // the rim depth at the same pixels
+  for (int v = 0; v < lab.rows; ++v) {
+    const float* dr = dist.ptr<float>(v);
+    const float* xr = depth.ptr<float>(v);
+    const uint16_t* lr = lab.ptr<uint16_t>(v);
+    const uchar* obr = obstacle.ptr<uchar>(v);
+    for (int u = 0; u < lab.cols; ++u) {
+      const float dd = dr[u], x = xr[u];
+      if (dd > band && dd <= 2 * band && lr[u] == 0 && !obr[u] && std::isfinite(x)) {
+        ring.emplace_back(static_cast<float>(u - lab.cols / 2), static_cast<float>(v - lab.rows / 2), x);
+        ring_raw.push_back(rim_depth.at<float>(v, u));
+      }
+    }
+  }
+  // The instance's depth (99th percentile): the smoothing's halo and the local model's misfit
+  // beside a deep wall grow with it.
+  std::vector<float> inside;
+  for (int v = 0; v < lab.rows; ++v) {
+    const uchar* in = inst.ptr<uchar>(v);
+    const float* xr = depth.ptr<float>(v);
+    for (int u = 0; u < lab.cols; ++u)
+      if (in[u] && std::isfinite(xr[u])) inside.push_back(xr[u]);
+  }
+  double floor_mm = rim_depth_m * 1000.0, plane[3] = {0, 0, 0}, ring_sigma = 0, depth99_mm = 0;
+  if (!inside.empty()) {
+    depth99_mm = KthSmallestInPlace(inside, QuantileRankDown(0.99, inside.size()));
+    floor_mm = std::max(floor_mm, rim_depth_fraction * depth99_mm);
+  }
+  if (ring.size() < 20 || !FitDepthPlane(ring, plane, &ring_sigma)) plane[0] = plane[1] = plane[2] = 0, ring_sigma = 0;
+  out.level = RingPlane{{plane[0], plane[1], plane[2]}, lab.cols / 2, lab.rows / 2};
+  // Per pixel the rim depth's own noise about the plane (unsmoothed: about w times the relief's).
+  double pixel_sigma = ring_sigma;
+  if (rim_depth.data != depth.data && ring_sigma > 0) {
+    std::vector<float> res;
+    for (size_t i = 0; i < ring.size(); ++i)
+      if (std::isfinite(ring_raw[i]))
+        res.push_back(std::abs(ring_raw[i] - static_cast<float>(plane[0] + plane[1] * ring[i].x + plane[2] * ring[i].y)));
+    if (res.size() >= 20) pixel_sigma = RobustSigmaOfAbs(res);
+  }
+  out.floor_mm = floor_mm, out.depth99_mm = depth99_mm, out.ring_sigma = ring_sigma, out.pixel_sigma = pixel_sigma;
+  out.noise_mm = std::max(floor_mm, 3.0 * pixel_sigma);  // per pixel: above the noise too
+  return out;
+}
+
+// The outline follows the depth, not the segmentation's superpixels: the instance's outer pixels
+// no deeper than the per-pixel threshold (connected to the outside through such pixels, within
+// the band) are dropped; a superpixel straddling the rim joins on a vote and takes road with it.
+void DropShallowOuterPixels(RimWindow& w, const RimLevel& lv) {
+  cv::Mat& lab = w.lab;
+  const cv::Mat &inst = w.inst, &rim_depth = w.rim_depth, &depth_in = w.depth_in;
+  const cv::Rect& box_in = w.box_in;
+  const RingPlane& level = lv.level;
+  cv::Mat shallow(lab.size(), CV_8U, cv::Scalar(0));
+  for (int v = box_in.y; v < box_in.y + box_in.height; ++v) {
+    const uchar* in = inst.ptr<uchar>(v);
+    const float* xr = rim_depth.ptr<float>(v);
+    const float* di = depth_in.ptr<float>(v - box_in.y) - box_in.x;
+    uchar* sh = shallow.ptr<uchar>(v);
+    for (int u = box_in.x; u < box_in.x + box_in.width; ++u)
+      if (in[u] && di[u] <= w.band && xr[u] < level(u, v) + lv.noise_mm) sh[u] = 255;  // NaN compares false
+  }
+  if (cv::countNonZero(shallow) == 0) return;
+  cv::Mat cc;
+  const int n = cv::connectedComponents(shallow, cc, 8, CV_32S);
+  std::vector<char> outer(n, 0);
+  for (int v = 0; v < lab.rows; ++v) {
+    const int* c = cc.ptr<int>(v);
+    for (int u = 0; u < lab.cols; ++u) {
+      if (c[u] == 0 || outer[c[u]]) continue;
+      // 4-neighbour outside the instance (or the roi's edge).
+      const bool edge = u == 0 || v == 0 || u + 1 == lab.cols || v + 1 == lab.rows;
+      if (edge || !inst.at<uchar>(v, u - 1) || !inst.at<uchar>(v, u + 1) || !inst.at<uchar>(v - 1, u) ||
+          !inst.at<uchar>(v + 1, u))
+        outer[c[u]] = 1;
+    }
+  }
+  int kept = 0;
+  for (int v = 0; v < lab.rows; ++v) {
+    const int* c = cc.ptr<int>(v);
+    const uchar* in = inst.ptr<uchar>(v);
+    for (int u = 0; u < lab.cols; ++u) kept += in[u] && !(c[u] > 0 && outer[c[u]]);
+  }
+  if (kept == 0) return;  // an instance shallow throughout keeps its segmentation
+  for (int v = 0; v < lab.rows; ++v) {
+    const int* c = cc.ptr<int>(v);
+    uint16_t* l = lab.ptr<uint16_t>(v);
+    for (int u = 0; u < lab.cols; ++u)
+      if (c[u] > 0 && outer[c[u]]) l[u] = 0;
+  }
+}
+
+// Candidates: deep (NaN compares false), inside the band, not another instance; those connected
+// to the instance join it.
+void GrowDeepPixels(RimWindow& w, const RimLevel& lv) {
+  cv::Mat& lab = w.lab;
+  const cv::Mat &dist = w.dist, &rim_depth = w.rim_depth;
+  const RingPlane& level = lv.level;
+  const int id = w.id;
+  const cv::Mat core = lab == id;
+  cv::Mat cand(lab.size(), CV_8U, cv::Scalar(0));
+  for (int v = 0; v < lab.rows; ++v) {
+    const float* dr = dist.ptr<float>(v);
+    const float* xr = rim_depth.ptr<float>(v);
+    const uint16_t* lr = lab.ptr<uint16_t>(v);
+    const uchar* co = core.ptr<uchar>(v);
+    uchar* ca = cand.ptr<uchar>(v);
+    for (int u = 0; u < lab.cols; ++u)
+      if (co[u] || (lr[u] == 0 && dr[u] <= w.band && xr[u] >= level(u, v) + lv.noise_mm)) ca[u] = 255;
+  }
+  cv::Mat cc;
+  const int n = cv::connectedComponents(cand, cc, 8, CV_32S);
+  std::vector<char> keep(n, 0);
+  for (int v = 0; v < cc.rows; ++v) {
+    const uchar* in = core.ptr<uchar>(v);
+    const int* c = cc.ptr<int>(v);
+    for (int u = 0; u < cc.cols; ++u)
+      if (in[u]) keep[c[u]] = 1;
+  }
+  for (int v = 0; v < cc.rows; ++v) {
+    uint16_t* l = lab.ptr<uint16_t>(v);
+    const int* c = cc.ptr<int>(v);
+    for (int u = 0; u < cc.cols; ++u)
+      if (c[u] > 0 && keep[c[u]] && l[u] == 0) l[u] = static_cast<uint16_t>(id);
+  }
+}
+
+// Beyond the per-pixel threshold, whole one-pixel rings join while their mean depth above the
+// ring's plane stands significantly (2 σ of a mean) above the road: n pixels of a relief
+// smoothed over w×w are about n / w² independent samples, so the mean's noise is σ·w/√n and the
+// wall's shallow outer part, lost in the per-pixel noise, is still found.
+void GrowSignificantRings(RimWindow& w, const RimLevel& lv, int ring_window_px) {
+  cv::Mat& lab = w.lab;
+  const cv::Mat &dist = w.dist, &rim_depth = w.rim_depth, &obstacle = w.obstacle;
+  const RingPlane& level = lv.level;
+  const int id = w.id, band = w.band;
+  const cv::Mat grown_dist = RoadDistance(lab != id, w.k);
+  std::vector<double> sum(band + 2, 0.0);
+  std::vector<int> cnt(band + 2, 0);
+  for (int v = 0; v < lab.rows; ++v) {
+    const float* gd = grown_dist.ptr<float>(v);
+    const float* od = dist.ptr<float>(v);
+    const float* x = rim_depth.ptr<float>(v);
+    const uint16_t* l = lab.ptr<uint16_t>(v);
+    const uchar* ob = obstacle.ptr<uchar>(v);
+    for (int u = 0; u < lab.cols; ++u) {
+      if (gd[u] <= 0 || gd[u] > band || od[u] > band || l[u] != 0 || ob[u] || !std::isfinite(x[u])) continue;
+      const int ring_k = static_cast<int>(std::ceil(gd[u]));
+      sum[ring_k] += x[u] - level(u, v), ++cnt[ring_k];
+    }
+  }
+  int rings = 0;
+  for (int j = 1; j <= band; ++j) {
+    if (cnt[j] < 10) break;
+    const double sigma_mean = lv.ring_sigma * ring_window_px / std::sqrt(static_cast<double>(cnt[j]));
+    if (sum[j] / cnt[j] < std::max(lv.floor_mm, 2.0 * sigma_mean)) break;
+    rings = j;
+  }
+  for (int v = 0; v < lab.rows && rings > 0; ++v) {
+    uint16_t* l = lab.ptr<uint16_t>(v);
+    const float* gd = grown_dist.ptr<float>(v);
+    const float* od = dist.ptr<float>(v);
+    const uchar* ob = obstacle.ptr<uchar>(v);
+    for (int u = 0; u < lab.cols; ++u)
+      if (gd[u] > 0 && gd[u] <= rings && od[u] <= band && l[u] == 0 && !ob[u]) l[u] = static_cast<uint16_t>(id);
+  }
+}
+
+// Oblique views: each side extended as the view shows it (ExtendObliqueSides), where the
+// matcher's noise does not set the threshold (there nothing is added). The matcher's noise from
+// differences of ring pixels a smoothing window apart along the row: in a car view the ring
+// plane's residual is mostly the road's own shape over a ring metres long, not noise; the lag
+// keeps a disparity's noise, correlated over the matcher's window, whole.
+void ExtendObliqueOpening(RimWindow& w, const RimLevel& lv, const cv::Mat& in0, int ring_window_px, bool far_up) {
+  cv::Mat& lab = w.lab;
+  const cv::Mat &rim_depth = w.rim_depth, &obstacle = w.obstacle;
+  const int lag = std::max(1, ring_window_px) + 1;
+  std::vector<float> diff;
+  for (const cv::Point3f& q : lv.ring) {
+    const int u = static_cast<int>(q.x) + lab.cols / 2, v = static_cast<int>(q.y) + lab.rows / 2;
+    if (u + lag >= lab.cols || lab.at<uint16_t>(v, u + lag) != 0 || obstacle.at<uchar>(v, u + lag)) continue;
+    if (const float d = rim_depth.at<float>(v, u + lag) - rim_depth.at<float>(v, u); std::isfinite(d))
+      diff.push_back(std::abs(d));
+  }
+  double pair_sigma = lv.pixel_sigma;
+  if (diff.size() >= 20) pair_sigma = RobustSigmaOfAbs(diff) / std::sqrt(2.0);
+  if (3 * pair_sigma < lv.floor_mm)
+    ExtendObliqueSides(lab, w.id, in0, rim_depth, obstacle, w.dist, w.band, lv.level, pair_sigma, ring_window_px,
+                       lv.depth99_mm, w.e, far_up);
+}
+
+// Near nadir: rings at 4-neighbour (city-block) distance to the outline, the metric of the
+// cross dilation that adds rings. Inside up to kMaxRings px, while their mean depth stays within
+// the wall's outer quarter (WallProfile); outside up to kMaxRings px (within two bands of the
+// segmented instance; road only: no other instance, obstacle). Where the per-pixel noise sets
+// the rim threshold, the profile's shape near the outline is the disparity's smoothing, not the
+// wall's: there the first-order step stays (the outline's two inner rings, at most 2 px out).
+void ExtendNadirOpening(RimWindow& w, const RimLevel& lv, const cv::Mat& in0, int ring_window_px) {
+  cv::Mat& lab = w.lab;
+  const cv::Mat &dist = w.dist, &rim_depth = w.rim_depth, &obstacle = w.obstacle;
+  const RingPlane& level = lv.level;
+  const int id = w.id, band = w.band;
+  const bool fit_profile = 3 * lv.pixel_sigma < lv.floor_mm;
+  cv::Mat in_dist, out_dist;
+  cv::distanceTransform(in0, in_dist, cv::DIST_L1, 3);
+  if (fit_profile) cv::distanceTransform(in0 == 0, out_dist, cv::DIST_L1, 3);
+  RingSums rings_sum;
+  for (int v = 0; v < lab.rows; ++v) {
+    const float* di = in_dist.ptr<float>(v);
+    const float* dout = fit_profile ? out_dist.ptr<float>(v) : nullptr;
+    const float* od = dist.ptr<float>(v);
+    const float* x = rim_depth.ptr<float>(v);
+    const uint16_t* l = lab.ptr<uint16_t>(v);
+    const uchar* ob = obstacle.ptr<uchar>(v);
+    for (int u = 0; u < lab.cols; ++u) {
+      if (!std::isfinite(x[u])) continue;
+      if (const int j = static_cast<int>(di[u]) - 1; j >= 0 && j < kMaxRings) {
+        rings_sum.sum_in[j] += x[u] - level(u, v), ++rings_sum.n_in[j];
+      } else if (const int k = dout ? static_cast<int>(dout[u]) - 1 : -1;
+                 k >= 0 && k < kMaxRings && l[u] == 0 && !ob[u] && od[u] <= 2 * band) {
+        rings_sum.sum_out[k] += x[u] - level(u, v), ++rings_sum.n_out[k];
+      }
+    }
+  }
+  if (!WallSignificant(rings_sum, lv.ring_sigma, ring_window_px)) return;
+  int extra;
+  if (!fit_profile) {
+    const double m1 = rings_sum.sum_in[0] / rings_sum.n_in[0], m2 = rings_sum.sum_in[1] / rings_sum.n_in[1];
+    extra = std::min(2, static_cast<int>(std::floor(m1 / (m2 - m1))));  // round(m1/slope - 1/2)
+  } else {
+    const RimProfile prof = WallProfile(rings_sum, lv.depth99_mm);
+    if (prof.x.empty()) return;
+    // Ring k outside (its centre k - 1/2 px beyond the outline) lies in the opening while k - 1/2 < gap.
+    extra = std::min(std::max(2, band / 4), static_cast<int>(std::lround(OpeningEdgeGapPx(prof, band / 4 + 2.5))));
+  }
+  const cv::Mat cross = cv::getStructuringElement(cv::MORPH_CROSS, {3, 3});
+  if (extra <= 0) return;
+  cv::Mat grown;
+  cv::dilate(in0, grown, cross, {-1, -1}, extra);  // the pixels within `extra` px (4-neighbour steps)
+  for (int v = 0; v < lab.rows; ++v) {
+    uint16_t* l = lab.ptr<uint16_t>(v);
+    const uchar* g = grown.ptr<uchar>(v);
+    const uchar* ob = obstacle.ptr<uchar>(v);
+    for (int u = 0; u < lab.cols; ++u)
+      if (g[u] && l[u] == 0 && !ob[u]) l[u] = static_cast<uint16_t>(id);
+  }
+}
+
 }  // namespace
 
 void ExtendToRim(cv::Mat& labels, const RoadRelief& r, double rim_depth_m, double rim_depth_fraction,
                  int ring_window_px, const std::vector<double>& row_elongation, const cv::Mat& raw_depth_below_mm) {
   // Boxes and pixel counts of the instances as segmented (growth of one id never changes another's).
   const std::vector<cv::Rect> boxes = LabelBoxes(labels);
+  // The far side of an oblique view: where the rows are longer on the road.
+  auto far_up = [&](const cv::Rect& b) {
+    const int top = b.y, bottom = b.y + b.height - 1;
+    return bottom >= static_cast<int>(row_elongation.size()) || row_elongation[top] >= row_elongation[bottom];
+  };
   for (int id = 1; id < static_cast<int>(boxes.size()); ++id) {
     if (boxes[id].empty()) continue;
-    // Distances on the road, in units of a column's width: an oblique view's rows are e times
-    // longer on the road, so a band of whole pixels would reach e times farther along the view
-    // than across (and stop short of a foreshortened pothole's cut-off ends).
-    const int centre = boxes[id].y + boxes[id].height / 2;
-    const double e = centre < static_cast<int>(row_elongation.size()) ? std::max(1.0, row_elongation[centre]) : 1.0;
-    const int k = std::max(1, static_cast<int>(std::lround(e)));
-    const int count = cv::countNonZero(labels(boxes[id]) == id);
-    const int band = std::max(1, static_cast<int>(0.3 * std::sqrt(count * k / CV_PI)));
-    const int pad_u = 2 * band + 1, pad_v = 2 * band / k + 1;
-    const cv::Rect roi = cv::Rect(boxes[id].x - pad_u, boxes[id].y - pad_v, boxes[id].width + 2 * pad_u,
-                                  boxes[id].height + 2 * pad_v) &
-                         cv::Rect({}, labels.size());
-    cv::Mat lab = labels(roi);  // view: writes go to `labels`
-    const cv::Mat inst = lab == id;
-    const cv::Mat depth = r.depth_below_mm(roi), obstacle = r.obstacle_mask(roi);
-    // The rim is found on the unsmoothed depth where given: the relief's box filter spreads a
-    // wall's depth up to half its window onto the road beyond the rim (a halo that grows with
-    // the depth), so on the smoothed relief any threshold low enough to reach the rim of a
-    // gently starting wall also grew steep ones into the road (nadir: 0.3-0.6 m potholes +12 to
-    // +18 % at a 1.5 % threshold).
-    cv::Mat rim_depth = depth;
-    if (!raw_depth_below_mm.empty()) {
-      rim_depth = raw_depth_below_mm(roi).clone();
-      if (!r.correction_mm.empty()) rim_depth -= r.correction_mm(roi);
-    }
-    const cv::Mat dist = RoadDistance(inst == 0, k);  // outside: distance to the instance
-    // Inside: distance to the outside, over the instance's box only (a quarter of the roi's area).
-    const cv::Rect box_in = cv::Rect(boxes[id].x - roi.x - 1, boxes[id].y - roi.y - 1, boxes[id].width + 2,
-                                     boxes[id].height + 2) &
-                            cv::Rect({}, lab.size());
-    const cv::Mat depth_in = RoadDistance(inst(box_in), k);
-    // The road around the instance, a ring one to two bands outside, as a plane: its level is the
-    // local road model's misfit there (a crown's ridge, a verge rising beside the lane), its
-    // spread the stereo noise. A plane, not one level: beside a verge the road rose 5-10 mm
-    // across a 0.66 m pothole (car), and one level cut its side a quarter short.
-    std::vector<cv::Point3f> ring;
-    std::vector<float> ring_raw;  // the rim depth at the same pixels
-    for (int v = 0; v < lab.rows; ++v) {
-      const float* dr = dist.ptr<float>(v);
-      const float* xr = depth.ptr<float>(v);
-      const uint16_t* lr = lab.ptr<uint16_t>(v);
-      const uchar* obr = obstacle.ptr<uchar>(v);
-      for (int u = 0; u < lab.cols; ++u) {
-        const float dd = dr[u], x = xr[u];
-        if (dd > band && dd <= 2 * band && lr[u] == 0 && !obr[u] && std::isfinite(x)) {
-          ring.emplace_back(static_cast<float>(u - lab.cols / 2), static_cast<float>(v - lab.rows / 2), x);
-          ring_raw.push_back(rim_depth.at<float>(v, u));
-        }
-      }
-    }
-    // The instance's depth (99th percentile): the smoothing's halo and the local model's misfit
-    // beside a deep wall grow with it.
-    std::vector<float> inside;
-    for (int v = 0; v < lab.rows; ++v) {
-      const uchar* in = inst.ptr<uchar>(v);
-      const float* xr = depth.ptr<float>(v);
-      for (int u = 0; u < lab.cols; ++u)
-        if (in[u] && std::isfinite(xr[u])) inside.push_back(xr[u]);
-    }
-    double floor_mm = rim_depth_m * 1000.0, plane[3] = {0, 0, 0}, ring_sigma = 0, depth99_mm = 0;
-    if (!inside.empty()) {
-      depth99_mm = KthSmallestInPlace(inside, QuantileRankDown(0.99, inside.size()));
-      floor_mm = std::max(floor_mm, rim_depth_fraction * depth99_mm);
-    }
-    if (ring.size() < 20 || !FitDepthPlane(ring, plane, &ring_sigma)) plane[0] = plane[1] = plane[2] = 0, ring_sigma = 0;
-    const RingPlane level{{plane[0], plane[1], plane[2]}, lab.cols / 2, lab.rows / 2};
-    // The far side of an oblique view: where the rows are longer on the road.
-    auto far_up = [&](const cv::Rect& b) {
-      const int top = b.y, bottom = b.y + b.height - 1;
-      return bottom >= static_cast<int>(row_elongation.size()) || row_elongation[top] >= row_elongation[bottom];
-    };
-    // Per pixel the rim depth's own noise about the plane (unsmoothed: about w times the relief's).
-    double pixel_sigma = ring_sigma;
-    if (rim_depth.data != depth.data && ring_sigma > 0) {
-      std::vector<float> res;
-      for (size_t i = 0; i < ring.size(); ++i)
-        if (std::isfinite(ring_raw[i]))
-          res.push_back(std::abs(ring_raw[i] - static_cast<float>(plane[0] + plane[1] * ring[i].x + plane[2] * ring[i].y)));
-      if (res.size() >= 20) pixel_sigma = RobustSigmaOfAbs(res);
-    }
-    const double noise_mm = std::max(floor_mm, 3.0 * pixel_sigma);  // per pixel: above the noise too
-    // The outline follows the depth, not the segmentation's superpixels: the instance's outer
-    // pixels no deeper than the per-pixel threshold (connected to the outside through such
-    // pixels, within the band) are dropped first. A superpixel straddling the rim joins on a
-    // 40 % vote and took road with it (obstacles, truth disparity: 0.3-0.5 m potholes +10 to
-    // +16 %; a 7 m car-view pothole +27 %).
-    cv::Mat shallow(lab.size(), CV_8U, cv::Scalar(0));
-    for (int v = box_in.y; v < box_in.y + box_in.height; ++v) {
-      const uchar* in = inst.ptr<uchar>(v);
-      const float* xr = rim_depth.ptr<float>(v);
-      const float* di = depth_in.ptr<float>(v - box_in.y) - box_in.x;
-      uchar* sh = shallow.ptr<uchar>(v);
-      for (int u = box_in.x; u < box_in.x + box_in.width; ++u)
-        if (in[u] && di[u] <= band && xr[u] < level(u, v) + noise_mm) sh[u] = 255;  // NaN compares false
-    }
-    if (cv::countNonZero(shallow) > 0) {
-      cv::Mat cc;
-      const int n = cv::connectedComponents(shallow, cc, 8, CV_32S);
-      std::vector<char> outer(n, 0);
-      for (int v = 0; v < lab.rows; ++v) {
-        const int* c = cc.ptr<int>(v);
-        for (int u = 0; u < lab.cols; ++u) {
-          if (c[u] == 0 || outer[c[u]]) continue;
-          // 4-neighbour outside the instance (or the roi's edge).
-          const bool edge = u == 0 || v == 0 || u + 1 == lab.cols || v + 1 == lab.rows;
-          if (edge || !inst.at<uchar>(v, u - 1) || !inst.at<uchar>(v, u + 1) || !inst.at<uchar>(v - 1, u) ||
-              !inst.at<uchar>(v + 1, u))
-            outer[c[u]] = 1;
-        }
-      }
-      int kept = 0;
-      for (int v = 0; v < lab.rows; ++v) {
-        const int* c = cc.ptr<int>(v);
-        const uchar* in = inst.ptr<uchar>(v);
-        for (int u = 0; u < lab.cols; ++u) kept += in[u] && !(c[u] > 0 && outer[c[u]]);
-      }
-      if (kept > 0)  // an instance shallow throughout keeps its segmentation
-        for (int v = 0; v < lab.rows; ++v) {
-          const int* c = cc.ptr<int>(v);
-          uint16_t* l = lab.ptr<uint16_t>(v);
-          for (int u = 0; u < lab.cols; ++u)
-            if (c[u] > 0 && outer[c[u]]) l[u] = 0;
-        }
-    }
-    const cv::Mat core = lab == id;
-    // Candidates: deep (NaN compares false), inside the band, not another instance; keep those
-    // connected to the instance.
-    cv::Mat cand(lab.size(), CV_8U, cv::Scalar(0));
-    for (int v = 0; v < lab.rows; ++v) {
-      const float* dr = dist.ptr<float>(v);
-      const float* xr = rim_depth.ptr<float>(v);
-      const uint16_t* lr = lab.ptr<uint16_t>(v);
-      const uchar* co = core.ptr<uchar>(v);
-      uchar* ca = cand.ptr<uchar>(v);
-      for (int u = 0; u < lab.cols; ++u)
-        if (co[u] || (lr[u] == 0 && dr[u] <= band && xr[u] >= level(u, v) + noise_mm)) ca[u] = 255;
-    }
-    cv::Mat cc;
-    const int n = cv::connectedComponents(cand, cc, 8, CV_32S);
-    std::vector<char> keep(n, 0);
-    for (int v = 0; v < cc.rows; ++v) {
-      const uchar* in = core.ptr<uchar>(v);
-      const int* c = cc.ptr<int>(v);
-      for (int u = 0; u < cc.cols; ++u)
-        if (in[u]) keep[c[u]] = 1;
-    }
-    for (int v = 0; v < cc.rows; ++v) {
-      uint16_t* l = lab.ptr<uint16_t>(v);
-      const int* c = cc.ptr<int>(v);
-      for (int u = 0; u < cc.cols; ++u)
-        if (c[u] > 0 && keep[c[u]] && l[u] == 0) l[u] = static_cast<uint16_t>(id);
-    }
-    if (ring_window_px <= 0 || !(ring_sigma > 0)) continue;
-    // Beyond the per-pixel threshold, whole one-pixel rings join while their mean depth above the
-    // ring's plane stands significantly (2 σ of a mean) above the road: n pixels of a relief
-    // smoothed over w×w are about n / w² independent samples, so the mean's noise is σ·w/√n and
-    // the wall's shallow outer part, lost in the per-pixel noise, is still found (with noisy
-    // disparity the per-pixel rim stopped 5-6 px short: area -10 to -18 %).
-    const cv::Mat grown_dist = RoadDistance(lab != id, k);
-    std::vector<double> sum(band + 2, 0.0);
-    std::vector<int> cnt(band + 2, 0);
-    for (int v = 0; v < lab.rows; ++v) {
-      const float* gd = grown_dist.ptr<float>(v);
-      const float* od = dist.ptr<float>(v);
-      const float* x = rim_depth.ptr<float>(v);
-      const uint16_t* l = lab.ptr<uint16_t>(v);
-      const uchar* ob = obstacle.ptr<uchar>(v);
-      for (int u = 0; u < lab.cols; ++u) {
-        if (gd[u] <= 0 || gd[u] > band || od[u] > band || l[u] != 0 || ob[u] || !std::isfinite(x[u])) continue;
-        const int ring_k = static_cast<int>(std::ceil(gd[u]));
-        sum[ring_k] += x[u] - level(u, v), ++cnt[ring_k];
-      }
-    }
-    int rings = 0;
-    for (int j = 1; j <= band; ++j) {
-      if (cnt[j] < 10) break;
-      const double sigma_mean = ring_sigma * ring_window_px / std::sqrt(static_cast<double>(cnt[j]));
-      if (sum[j] / cnt[j] < std::max(floor_mm, 2.0 * sigma_mean)) break;
-      rings = j;
-    }
-    for (int v = 0; v < lab.rows && rings > 0; ++v) {
-      uint16_t* l = lab.ptr<uint16_t>(v);
-      const float* gd = grown_dist.ptr<float>(v);
-      const float* od = dist.ptr<float>(v);
-      const uchar* ob = obstacle.ptr<uchar>(v);
-      for (int u = 0; u < lab.cols; ++u)
-        if (gd[u] > 0 && gd[u] <= rings && od[u] <= band && l[u] == 0 && !ob[u]) l[u] = static_cast<uint16_t>(id);
-    }
+    RimWindow w = OpenRimWindow(labels, id, boxes[id], r, row_elongation, raw_depth_below_mm);
+    const RimLevel lv = FitRimLevel(w, rim_depth_m, rim_depth_fraction);
+    DropShallowOuterPixels(w, lv);
+    GrowDeepPixels(w, lv);
+    if (ring_window_px <= 0 || !(lv.ring_sigma > 0)) continue;
+    GrowSignificantRings(w, lv, ring_window_px);
     // The opening's edge lies beyond the outline, which stops where the wall is still the
     // threshold deep: the wall's outer part, sampled on the outline's inner pixel rings, is
     // extended to the road's level just outside (OpeningEdgeGapPx: a power law between a wall
-    // meeting the road at an angle and one leaving it tangentially; the simulator's smoothstep
-    // wall is the latter, which the first-order step before closed only half-way: truth
-    // disparity, outline 1.1-1.5 px short on 0.15-0.3 m2 potholes, 2.5-4.3 px on 1.1-1.6 m2 ones,
-    // area -4.5 to -7 %). Only where the two outer ring means stand 4 σ of a mean clear (with our
-    // disparity unbounded steps grew potholes 20-80 % on noisy slopes), by at most a quarter of
-    // the band (at least 2 px). In oblique views (e >= 1.5, as the superpixels' shaping) a pixel's
-    // depth is not that of the surface where its ray crosses the road: each side is extended as
-    // the view shows it (ExtendObliqueSides; car, truth disparity: area bias -7.8 -> -2.5 %), where
-    // the matcher's noise does not set the threshold (there nothing is added).
-    // Where the per-pixel noise sets the rim threshold (our disparity) only the two inner rings
-    // are used (below): no outside rings then.
-    const bool fit_profile = 3 * pixel_sigma < floor_mm;
-    const cv::Mat in0 = lab == id;
-    if (e >= 1.5) {
-      // The matcher's noise from differences of ring pixels a smoothing window apart along the
-      // row: in a car view the ring plane's residual is mostly the road's own shape over a ring
-      // metres long (a verge, the crown: 0.6-1.4 mm with the truth disparity), not noise; the
-      // lag keeps our disparity's noise, correlated over the matcher's window, whole.
-      const int lag = std::max(1, ring_window_px) + 1;
-      std::vector<float> diff;
-      for (const cv::Point3f& q : ring) {
-        const int u = static_cast<int>(q.x) + lab.cols / 2, v = static_cast<int>(q.y) + lab.rows / 2;
-        if (u + lag >= lab.cols || lab.at<uint16_t>(v, u + lag) != 0 || obstacle.at<uchar>(v, u + lag)) continue;
-        if (const float d = rim_depth.at<float>(v, u + lag) - rim_depth.at<float>(v, u); std::isfinite(d))
-          diff.push_back(std::abs(d));
-      }
-      double pair_sigma = pixel_sigma;
-      if (diff.size() >= 20) pair_sigma = RobustSigmaOfAbs(diff) / std::sqrt(2.0);
-      if (3 * pair_sigma < floor_mm)
-        ExtendObliqueSides(lab, id, in0, rim_depth, obstacle, dist, band, level, pair_sigma, ring_window_px, depth99_mm,
-                           e, far_up(boxes[id]));
-      continue;
-    }
-    // Rings: 4-neighbour (city-block) distance to the outline, the metric of the cross dilation
-    // that adds rings. Inside up to 12 px, while their mean depth stays within the wall's outer
-    // quarter (WallProfile); outside up to 12 px (within two bands of the segmented instance; road
-    // only: no other instance, obstacle).
-    cv::Mat in_dist, out_dist;
-    cv::distanceTransform(in0, in_dist, cv::DIST_L1, 3);
-    if (fit_profile) cv::distanceTransform(in0 == 0, out_dist, cv::DIST_L1, 3);
-    RingSums rings_sum;
-    for (int v = 0; v < lab.rows; ++v) {
-      const float* di = in_dist.ptr<float>(v);
-      const float* dout = fit_profile ? out_dist.ptr<float>(v) : nullptr;
-      const float* od = dist.ptr<float>(v);
-      const float* x = rim_depth.ptr<float>(v);
-      const uint16_t* l = lab.ptr<uint16_t>(v);
-      const uchar* ob = obstacle.ptr<uchar>(v);
-      for (int u = 0; u < lab.cols; ++u) {
-        if (!std::isfinite(x[u])) continue;
-        if (const int j = static_cast<int>(di[u]) - 1; j >= 0 && j < kMaxRings) {
-          rings_sum.sum_in[j] += x[u] - level(u, v), ++rings_sum.n_in[j];
-        } else if (const int k = dout ? static_cast<int>(dout[u]) - 1 : -1;
-                   k >= 0 && k < kMaxRings && l[u] == 0 && !ob[u] && od[u] <= 2 * band) {
-          rings_sum.sum_out[k] += x[u] - level(u, v), ++rings_sum.n_out[k];
-        }
-      }
-    }
-    if (!WallSignificant(rings_sum, ring_sigma, ring_window_px)) continue;
-    // Where the per-pixel noise sets the rim threshold (our disparity), the profile's shape near
-    // the outline is the disparity's smoothing, not the wall's: mostly the disparity stage's 21x21
-    // smooth refinement window (not its 9x9 one), which spreads a wall's depth 3-8 px onto the
-    // road (0.1 m2 potholes at 4 m: 2.5-4.5 mm of depth 4 px outside the true
-    // edge, area +13 to +21 %), a toe the power law read as a tangential wall (drone-low, our
-    // disparity: area max 7.7 -> 10.2 %). There the first-order step stays (the outline's two
-    // inner rings, at most 2 px outwards).
-    int extra;
-    if (!fit_profile) {
-      const double m1 = rings_sum.sum_in[0] / rings_sum.n_in[0], m2 = rings_sum.sum_in[1] / rings_sum.n_in[1];
-      extra = std::min(2, static_cast<int>(std::floor(m1 / (m2 - m1))));  // round(m1/slope - 1/2)
-    } else {
-      const RimProfile prof = WallProfile(rings_sum, depth99_mm);
-      if (prof.x.empty()) continue;
-      // Ring k outside (its centre k - 1/2 px beyond the outline) lies in the opening while k - 1/2 < gap.
-      extra = std::min(std::max(2, band / 4), static_cast<int>(std::lround(OpeningEdgeGapPx(prof, band / 4 + 2.5))));
-    }
-    const cv::Mat cross = cv::getStructuringElement(cv::MORPH_CROSS, {3, 3});
-    if (extra <= 0) continue;
-    cv::Mat grown;
-    cv::dilate(in0, grown, cross, {-1, -1}, extra);  // the pixels within `extra` px (4-neighbour steps)
-    for (int v = 0; v < lab.rows; ++v) {
-      uint16_t* l = lab.ptr<uint16_t>(v);
-      const uchar* g = grown.ptr<uchar>(v);
-      const uchar* ob = obstacle.ptr<uchar>(v);
-      for (int u = 0; u < lab.cols; ++u)
-        if (g[u] && l[u] == 0 && !ob[u]) l[u] = static_cast<uint16_t>(id);
-    }
+    // meeting the road at an angle and one leaving it tangentially). Only where the two outer
+    // ring means stand 4 σ of a mean clear, by at most a quarter of the band (at least 2 px).
+    // In oblique views a pixel's depth is not that of the surface where its ray crosses the
+    // road: each side is extended as the view shows it.
+    const cv::Mat in0 = w.lab == id;
+    if (w.e >= kObliqueElongation)
+      ExtendObliqueOpening(w, lv, in0, ring_window_px, far_up(boxes[id]));
+    else
+      ExtendNadirOpening(w, lv, in0, ring_window_px);
   }
 }
 

@@ -12,6 +12,10 @@
 
 namespace rs {
 
+/// A view is oblique where a pixel is at least this many times longer on the road along the
+/// column than across (RoadRowElongation): superpixels are shaped and rims extended for it.
+inline constexpr double kObliqueElongation = 1.5;
+
 /// Road length of a pixel along the image column / across it, per image row, at the principal
 /// column, for a road plane with unit `normal` towards the camera: 1 for a camera facing the
 /// road, ~3.5 for a car camera 1.5 m high looking at road 5 m ahead; 1 where the ray misses the

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "survey/stats/order_statistic.h"
+#include "stages/damage/road/relief_smooth.h"
 #include "stages/damage/segment/rect_merge.h"
 
 namespace rs {
@@ -121,7 +122,7 @@ void SnapRoiToSuperpixels(cv::Mat& mask, const cv::Mat& z, const cv::Mat& valid,
   // so superpixels of the same pixel count are square on the road: a square 16-px superpixel
   // spans 0.4 m of road along the view at 6 m from a car, more than a 0.3 m pothole.
   const int k = o.slic_region_size_px >= 8 ? 2 : 1;
-  const double root_e = o.slic_ground && elongation >= 1.5 ? std::sqrt(elongation) : 1.0;
+  const double root_e = o.slic_ground && elongation >= kObliqueElongation ? std::sqrt(elongation) : 1.0;
   const double sx = k * root_e, sy = k / root_e;  // full-resolution pixels per resampled pixel
   cv::Mat small = img;
   if (root_e > 1.0)
@@ -336,7 +337,7 @@ DepressionSegmentation SegmentDepressions(const ReliefImage& relief, const Segme
     });
     // Significant where it lies is enough: deep damage elsewhere in the frame raises the energy
     // threshold (13–14 σ beside 120 mm potholes) above shallow potholes that stand
-    // seed_noise_sigma local σ out (obstacles seed 3, our disparity: 41.5 mm at 6 m lost).
+    // seed_noise_sigma local σ out.
     if (o.seed_noise_sigma > 0) {
       const float k2 = static_cast<float>(o.seed_noise_sigma);
       tbb::parallel_for(0, seed.rows, [&](int v) {
