@@ -27,14 +27,12 @@ struct RoadModelOptions {
   /// The smoothing window covers a square on the road with about relief_smooth_px² pixels:
   /// in an oblique view (car) it is shorter and wider on the image (relief_smooth.h). A square
   /// image window there spans 3-5× more road along the driving direction than across and
-  /// smeared foreshortened potholes' rims outwards (area +20 to +60 % at 5-8 m); false: square
-  /// on the image.
+  /// smears foreshortened potholes' rims outwards; false: square on the image.
   bool relief_smooth_ground = true;
   /// Pixels whose transformed disparity differs from its smoothed value by more than this many
   /// σ (robust σ of that difference over the frame: the matching noise) keep their own values:
   /// the smoothing averages noise, not a pothole's rim or the occlusion edge at its near wall,
-  /// which it smeared onto the road beside (car, truth disparity: area +20 to +40 % for 0.3 m
-  /// potholes at 5-6 m); 0 = off.
+  /// which it would smear onto the road beside; 0 = off.
   double relief_smooth_edge_sigma = 16.0;
   /// Analysed range: disparities whose stereo depth uncertainty σ_Z = Z²·σ_d/(f·B) (σ_d =
   /// measure.sigma_disparity_px) exceeds this are dropped before the road fit (the far road of

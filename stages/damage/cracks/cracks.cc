@@ -217,7 +217,7 @@ int PruneSpurs(cv::Mat& skel, int n) {
 }
 
 // Thinning leaves L-shaped corners (A, B, C with A–C diagonal): B is redundant for 8-connectivity
-// and made a diagonal step count 2 instead of √2 (lengths +20 to +40 % on slanted cracks).
+// and would make a diagonal step count 2 instead of √2.
 void RemoveStaircases(cv::Mat& skel) {
   for (int v = 0; v < skel.rows; ++v)
     for (int u = 0; u < skel.cols; ++u) {
@@ -357,7 +357,7 @@ CrackDetection DetectCracks(const cv::Mat& image, const cv::Mat& road_mask, cons
     if (!(len_px > 0)) continue;
     // Width from the darkness profile, not the mask: the contrast summed over the component per
     // unit length / the contrast on the skeleton (the profile's area over its height). The mask
-    // holds the crack's faint blurred edges too (1 σ above the level): widths were ~1 px wide.
+    // holds the crack's faint blurred edges too (1 σ above the level), about a pixel too wide.
     double total_contrast = 0;
     for (int v = 0; v < comp.rows; ++v)
       for (int u = 0; u < comp.cols; ++u)

@@ -73,8 +73,7 @@ double FarWallSlope(const std::vector<std::pair<double, double>>& seen, double x
 // mean slope over the middle (30-70 % of the grazing depth) and the lower part (70-100 %).
 // Only a wall steeper than the rays over the rim (`ray_slope`) is read: mirrored onto the near
 // side, a shallower one would hide no floor, so it is not the wall but the disparity's smoothing
-// of it (car, our disparity: far walls at 0.03-0.29 under rays at 0.21-0.34, exact disparity
-// 0.7-2.4).
+// of it.
 struct WallTrend {
   double mid = kUnknown, low = kUnknown, ray_slope = kUnknown;
   /// The slope declines towards the grazing point: where it reaches zero is a floor.
@@ -285,9 +284,8 @@ FloorVisibility AnalyseFloorVisibility(const cv::Mat& labels, int id, const cv::
   // where the grazing rays meet the far wall, one row on the shadow line. With exact disparity
   // the deepest part begins on the shadow line (the walls are steeper than the rays), so this
   // is the clearance itself; a disparity smoothed along the view moves that row a few rows off
-  // the rim and spreads it (car, our disparity: the deepest part of hidden floors began 3
-  // rows behind the rim and reached 8-11 rows, as far as seen floors do), which measuring from
-  // where it begins cancels. Where it begins: the median over the strips of each strip's
+  // the rim and spreads it (as far as seen floors reach), which measuring from where it
+  // begins cancels. Where it begins: the median over the strips of each strip's
   // nearest deep point (one strip's noise does not move it).
   const double deep_m = max_depth_m - std::max(0.1 * max_depth_m, sigma_height_m);
   double best_clearance = -1e300, tan_sum = 0;
@@ -309,8 +307,7 @@ FloorVisibility AnalyseFloorVisibility(const cv::Mat& labels, int id, const cv::
     if (st.deep_start_m < 1e300) starts.push_back(st.deep_start_m);
   const double deep_start_m = std::max(0.0, LowerMedianInPlace(starts));
   // The grazing rays' depth, from as far behind the rim as the smoothing moved the deepest
-  // part (rows nearer the rim mix the road in: a 120 mm cap at 5 m smoothed over 5 rows gave a
-  // bound of 113 mm).
+  // part (rows nearer the rim mix the road in and lower the bound).
   const double edge_band_m = edge_m + deep_start_m;
   for (const RayPoint& p : pts) {
     if (!(p.depth_m >= rim_depth_m)) continue;

@@ -2,10 +2,10 @@
 // The road's local noise for confirming damage, robust to one-sided structure. LocalReliefNoise
 // measures the spread above the road level (damage fills only the lower tail); where the road
 // itself rises beside a kerb or verge that the road model does not follow, the rise counts as
-// noise there (car, truth disparity: 3–5 mm of depth against 0.3–0.8 mm elsewhere) and
+// noise there (several times the matching noise elsewhere) and
 // well-measured potholes beside it fail the noise rule. Matching noise (ripples, pixel locking,
 // wrong winners) errs both ways, so its spreads above and below the level agree to within
-// sampling (our disparity: 10–20 %; damage only raises the one below); a spread above more than
+// sampling (damage only raises the one below); a spread above more than
 // `max_asymmetry` times the one below is a rise, not noise, and is capped there.
 
 #include <opencv2/core.hpp>
@@ -24,12 +24,9 @@ inline constexpr double kMatchingNoiseMaxAsymmetry = 2.0;
 /// `instances` (optional CV_16U of the value's size, ids 1..n: the found depressions): on each
 /// instance's pixels σ_down leaves that instance's own pixels out (leave-one-out: recomputed over
 /// its bounding box grown by two cells, cells aligned with the frame's). A pothole filling much of
-/// a cell otherwise measured its own walls as the road's spread below (car, our disparity: a
-/// 0.29 m² pothole at 4.5 m beside the verge: σ_down 2.1 mm of depth, cap 4.2 mm, so its 27.6 mm
-/// failed the 8 σ rule; left out, σ_down 1.3 mm, 10.5 σ). The other depressions stay in: a
-/// wrong-winner patch beside it is the road's noise there (leaving every depression out let a
-/// pair of such patches confirm each other: obstacles seed 3, one more false pothole). σ_up keeps
-/// every sample.
+/// a cell would otherwise measure its own walls as the road's spread below. The other
+/// depressions stay in: a wrong-winner patch beside it is the road's noise there (leaving every
+/// depression out would let a pair of such patches confirm each other). σ_up keeps every sample.
 /// Throws std::invalid_argument as LocalReliefNoise, when noise_up or instances differ from value
 /// in size or type, or when max_asymmetry < 1.
 cv::Mat TwoSidedReliefNoise(const cv::Mat& noise_up, const cv::Mat& value, const cv::Mat& valid, double level,

@@ -406,9 +406,9 @@ LocalCorrection ComputeLocalCorrection(const cv::Mat& depth, const cv::Mat& obst
   const int cell = o.local_cell_px;
   const double band1 = std::clamp(4000.0 * s.residual_sigma_m, 6.0, 20.0);
   // Above the model the band reaches the obstacle height: damage lies only below the road, and a
-  // road rising off the quadratic (a verge before the kerb: up to 30 mm on car) is road; cut at
-  // ±band1, cells on the rise took their neighbours' correction and the reference beside a
-  // pothole there lay up to 24 mm too low (car seed 2, truth disparity: 47 mm measured 37 mm).
+  // road rising off the quadratic (a verge before the kerb) is road; cut at ±band1, cells on the
+  // rise would take their neighbours' correction and the reference beside a pothole there would
+  // lie too low.
   const double above1 = std::max(band1, 1000.0 * o.obstacle_height_m);
   const cv::Mat c1 = UpsampleGrid(CellGrid(depth, ignore, cv::Mat(), band1, cell, above1), cell, depth.size());
   // The band's spread is taken over all road pixels, known damage included (MAD: robust to it),

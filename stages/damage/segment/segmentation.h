@@ -64,8 +64,7 @@ double EnergyThresholdSigma(const cv::Mat& z, const cv::Mat& valid, const Segmen
 /// of it below the road seeds whatever the frame's threshold; growth keeps the frame's threshold,
 /// except on `noisy_class` (optional CV_8U, non-zero = pixels of their own, noisier class, e.g.
 /// within the margin of paint edges, StrongEdgeMask), which join a region only as deep as a seed
-/// (a region grew along a paint line's wrong winners: obstacles seed 2, ours, a pothole's label
-/// 54 % road). Throws std::invalid_argument on bad types or sizes (noisy_class without
+/// (a region would grow along a paint line's wrong winners). Throws std::invalid_argument on bad types or sizes (noisy_class without
 /// noise_sigma included).
 DepressionSegmentation SegmentDepressions(const ReliefImage& relief, const SegmentOptions& options,
                                           const cv::Mat& pixel_area_m2 = cv::Mat(),
