@@ -59,8 +59,8 @@ struct SegmentOptions {
   /// region a pixel lies in, not one σ for the frame (stereo noise is not stationary), px; 0 = global σ.
   int noise_cell_px = 96;
   /// Calibrated, with the local noise map: a pixel at least this many local σ below the road seeds a
-  /// region whatever the frame's threshold (deep potholes elsewhere raise that to 13–14 σ and lost
-  /// 35–48 mm ones at 6 m that stand 8+ σ out where they lie; the pothole noise rule's own k); 0 = off.
+  /// region whatever the frame's threshold (deep potholes elsewhere raise that above shallow ones
+  /// that stand out where they lie; the pothole noise rule's own k); 0 = off.
   double seed_noise_sigma = 8.0;
   /// Calibrated, with the left image and noise_cell_px > 0: pixels near strong intensity steps
   /// (paint edges; StrongEdgeMask), where the matcher may err by more than shallow damage, get
