@@ -163,10 +163,10 @@ Command BenchCommand() {
                          "|---|---|---|---|---|\n");
               fmt::print("| {}x{} | {} | {:.1f} | {:.1f} | {:.1f} |\n", size.width, size.height, g->frames, b.wall_ms,
                          b.cpu_ms, b.wall_ms > 0 ? 1000.0 / b.wall_ms : 0.0);
-              fmt::print("steps (wall ms): road {:.1f}, segment {:.1f}, measure {:.1f}, cracks {:.1f}, overlay + JSON {:.1f}; "
-                         "PNG encoding {:.1f} (not included)\nframe: {} potholes, {} cracks, {} other\n",
-                         b.road_ms, b.segment_ms, b.measure_ms, b.cracks_ms, b.outputs_ms, b.encode_ms, b.potholes,
-                         b.cracks, b.others);
+              fmt::print("passes (wall ms):");
+              for (const PassTime& p : b.pass_ms) fmt::print(" {} {:.1f},", p.name, p.ms);
+              fmt::print(" overlay + JSON {:.1f}; PNG encoding {:.1f} (not included)\nframe: {} potholes, {} cracks, {} other\n",
+                         b.outputs_ms, b.encode_ms, b.potholes, b.cracks, b.others);
               fmt::print("load average (1 min) {:.1f} before, {:.1f} after; {} hardware threads\n", load_before[0],
                          load_after[0], std::thread::hardware_concurrency());
               return kExitOk;

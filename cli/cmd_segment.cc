@@ -15,7 +15,7 @@
 #include "cli/tool_util.h"
 #include "formats/input_error.h"
 #include "formats/stereo/image_io.h"
-#include "stages/damage/damage_output.h"
+#include "stages/damage/output/damage_output.h"
 #include "stages/damage/damage_pipeline.h"
 
 namespace rs {

@@ -10,7 +10,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "sim/synthetic_damage_scene.h"
-#include "stages/damage/damage_output.h"
+#include "stages/damage/output/damage_output.h"
 #include "stages/damage/damage_pipeline.h"
 
 namespace rs {
@@ -26,7 +26,10 @@ DamageBench BenchDetectDamage(int width, int height, int repeats) {
   const SyntheticRoadScene scene = BenchmarkRoadScene(width, height);
   const cv::Mat disparity = scene.Render(), image = scene.RenderImage();
   const DamageOptions options;
-  std::vector<double> wall, cpu, steps[6];
+  options.Check();
+  const std::vector<std::string> names = DamagePassNames();
+  std::vector<double> wall, cpu, outputs, encode;
+  std::vector<std::vector<double>> passes(names.size());
   DamageBench b;
   for (int i = 0; i < std::max(1, repeats); ++i) {
     const auto t0 = std::chrono::steady_clock::now();
@@ -37,13 +40,13 @@ DamageBench BenchDetectDamage(int width, int height, int repeats) {
     const std::string json = DetectionsToJson(f.instances).dump(2);
     cpu.push_back(1000.0 * double(std::clock() - c0) / CLOCKS_PER_SEC);
     wall.push_back(MsSince(t0));
-    steps[0].push_back(f.ms_road), steps[1].push_back(f.ms_segment), steps[2].push_back(f.ms_measure);
-    steps[3].push_back(f.ms_cracks), steps[4].push_back(MsSince(t1));
+    for (size_t k = 0; k < names.size(); ++k) passes[k].push_back(f.PassMs(names[k]));
+    outputs.push_back(MsSince(t1));
     const auto t2 = std::chrono::steady_clock::now();
     std::vector<uchar> png;
     cv::imencode(".png", f.labels, png);
     cv::imencode(".png", overlay, png);
-    steps[5].push_back(MsSince(t2));
+    encode.push_back(MsSince(t2));
     b.potholes = b.cracks = b.others = 0;
     for (const DamageInstance& d : f.instances)
       (d.type == DamageType::kPothole ? b.potholes : d.type == DamageType::kCrack ? b.cracks : b.others)++;
@@ -53,8 +56,8 @@ DamageBench BenchDetectDamage(int width, int height, int repeats) {
     return v[v.size() / 2];
   };
   b.wall_ms = median(wall), b.cpu_ms = median(cpu);
-  b.road_ms = median(steps[0]), b.segment_ms = median(steps[1]), b.measure_ms = median(steps[2]);
-  b.cracks_ms = median(steps[3]), b.outputs_ms = median(steps[4]), b.encode_ms = median(steps[5]);
+  for (size_t k = 0; k < names.size(); ++k) b.pass_ms.push_back({names[k], median(passes[k])});
+  b.outputs_ms = median(outputs), b.encode_ms = median(encode);
   return b;
 }
 

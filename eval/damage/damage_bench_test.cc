@@ -8,7 +8,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "sim/synthetic_damage_scene.h"
-#include "stages/damage/damage_output.h"
+#include "stages/damage/output/damage_output.h"
 #include "stages/damage/damage_pipeline.h"
 
 namespace rs {
@@ -20,10 +20,12 @@ namespace {
 // spurious depressions, and cracks.
 TEST(BenchDetectDamage, Nominal) {
   const DamageBench b = BenchDetectDamage(1280, 720, 5);
-  std::printf("DetectDamage 1280x720: median wall %.1f ms, CPU %.1f ms (road %.1f, segment %.1f, measure %.1f, "
-              "cracks %.1f, overlay+JSON %.1f; PNG encoding %.1f not included); %d potholes, %d cracks, %d other\n",
-              b.wall_ms, b.cpu_ms, b.road_ms, b.segment_ms, b.measure_ms, b.cracks_ms, b.outputs_ms, b.encode_ms,
-              b.potholes, b.cracks, b.others);
+  std::printf("DetectDamage 1280x720: median wall %.1f ms, CPU %.1f ms (", b.wall_ms, b.cpu_ms);
+  for (const PassTime& p : b.pass_ms) std::printf("%s %.1f, ", p.name.c_str(), p.ms);
+  std::printf("overlay+JSON %.1f; PNG encoding %.1f not included); %d potholes, %d cracks, %d other\n", b.outputs_ms,
+              b.encode_ms, b.potholes, b.cracks, b.others);
+  ASSERT_EQ(b.pass_ms.size(), DamagePassNames().size());  // every pass timed, in the table's order
+  for (size_t k = 0; k < b.pass_ms.size(); ++k) EXPECT_EQ(b.pass_ms[k].name, DamagePassNames()[k]);
   EXPECT_LT(b.cpu_ms, 1000.0);
   EXPECT_EQ(b.potholes, 5);
   EXPECT_GE(b.cracks, 3);

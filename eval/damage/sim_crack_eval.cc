@@ -2,7 +2,7 @@
 
 #include "formats/geojson/geojson.h"
 #include "formats/input_error.h"
-#include "stages/damage/measure.h"
+#include "stages/damage/measure/measure.h"
 #include "survey/stats/order_statistic.h"
 #include "eval/damage/sim_truth.h"
 #include "survey/atomic_file.h"
@@ -170,7 +170,7 @@ SimCrackEvaluation EvaluateSimulatedCracks(const fs::path& dir, const SimCrackEv
       disparity = ComputeDisparity(left, ReadSimRightImage(survey, k), dp).disparity;
     }
     const FrameDamage fd = DetectDamage(disparity, left, g, o.damage);
-    ms_cracks.push_back(fd.ms_cracks);
+    ms_cracks.push_back(fd.PassMs("cracks"));
     ++r.frames;
     const double max_range = fd.analysed_range_m;
     const double z_far = std::isfinite(max_range) ? max_range : 1e9;

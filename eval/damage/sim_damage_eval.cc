@@ -2,8 +2,8 @@
 
 #include "formats/geojson/geojson.h"
 #include "formats/input_error.h"
-#include "stages/damage/damage_output.h"
-#include "stages/damage/measure.h"
+#include "stages/damage/output/damage_output.h"
+#include "stages/damage/measure/measure.h"
 #include "survey/stats/order_statistic.h"
 #include "eval/damage/sim_truth.h"
 #include "sim/road_scene.h"
@@ -147,7 +147,8 @@ SimDamageEvaluation EvaluateSimulatedDamage(const fs::path& dir, const SimDamage
   const sim::RoadGeometry road(survey.options);
 
   SimDamageEvaluation r;
-  std::vector<double> steps[4];
+  const std::vector<std::string> pass_names = DamagePassNames();
+  std::vector<std::vector<double>> pass_ms(pass_names.size());
   std::vector<double> ms_damage, cpu_damage, ms_disp, road_abs_mm, depth_mm, visible_depth_mm, area_pct, volume_pct,
       visible_volume_pct, seen_depth_mm, seen_volume_pct, bound_ratio, volume_ratio, hidden_depth_est_mm,
       bounded_volume_est_pct;
@@ -180,8 +181,7 @@ SimDamageEvaluation EvaluateSimulatedDamage(const fs::path& dir, const SimDamage
     r.max_range_m = std::max(r.max_range_m, max_range);
     cpu_damage.push_back(1000.0 * double(std::clock() - c0) / CLOCKS_PER_SEC);
     ms_damage.push_back(MsSince(t0));
-    steps[0].push_back(fd.ms_road), steps[1].push_back(fd.ms_segment), steps[2].push_back(fd.ms_measure);
-    steps[3].push_back(fd.ms_cracks);
+    for (size_t j = 0; j < pass_names.size(); ++j) pass_ms[j].push_back(fd.PassMs(pass_names[j]));
     ++r.frames;
 
     const Eigen::Isometry3d& T = survey.trajectory.poses[k].T_world_frame;
@@ -447,8 +447,7 @@ SimDamageEvaluation EvaluateSimulatedDamage(const fs::path& dir, const SimDamage
   r.ms_damage_max = ms_damage.empty() ? 0 : *std::max_element(ms_damage.begin(), ms_damage.end());
   r.ms_disparity_median = Percentile(ms_disp, 0.5);
   r.cpu_ms_damage_median = Percentile(cpu_damage, 0.5);
-  r.ms_road_median = Percentile(steps[0], 0.5), r.ms_segment_median = Percentile(steps[1], 0.5);
-  r.ms_measure_median = Percentile(steps[2], 0.5), r.ms_cracks_median = Percentile(steps[3], 0.5);
+  for (size_t j = 0; j < pass_names.size(); ++j) r.pass_ms_median.push_back({pass_names[j], Percentile(pass_ms[j], 0.5)});
   return r;
 }
 
@@ -457,6 +456,8 @@ std::string SimDamageEvaluation::Report() const {
     return fmt::format("bias {:+.1f}{u}, median |e| {:.1f}{u}, p95 {:.1f}{u}, max {:.1f}{u} (n {})", s.mean,
                        s.median_abs, s.p95_abs, s.max_abs, s.n, fmt::arg("u", unit));
   };
+  std::string passes;
+  for (const PassTime& p : pass_ms_median) passes += fmt::format("{}{} {:.1f}", passes.empty() ? "" : ", ", p.name, p.ms);
   std::string s = fmt::format(
       "{} frames {}x{}, disparity valid {:.1f} %, scored range <= {:.1f} m\n"
       "potholes scored: {} observations of {} potholes; recall {:.3f} ({}/{}); in view but below the sigma_Z rule: {}\n"
@@ -477,7 +478,7 @@ std::string SimDamageEvaluation::Report() const {
       "stated uncertainty: area within 2 sigma_area {:.1f} % (mean sigma_area {:.1f} % of the area); volume seen "
       "within 2 sigma_volume {:.1f} % (mean sigma_volume {:.1f} %, n {})\n"
       "road model: median |true road - fitted| {:.2f} mm\n"
-      "time per frame: DetectDamage median {:.1f} ms wall (max {:.1f}), {:.1f} ms CPU (road {:.1f}, segment {:.1f}, measure {:.1f}, cracks {:.1f}); "
+      "time per frame: DetectDamage median {:.1f} ms wall (max {:.1f}), {:.1f} ms CPU ({}); "
       "disparity median {:.1f} ms",
       frames, width, height, 100 * disparity_valid_fraction, max_range_m, observations.size(), unique_potholes, recall, detected,
       observations.size(), unconfirmable, detections, false_positives, ignored_detections, precision, obstacle_detections,
@@ -492,7 +493,7 @@ std::string SimDamageEvaluation::Report() const {
       stats(bounded_volume_estimate_error_pct, " %"), flag_agreements, detected,
       flagged_hidden_truth_seen, flagged_seen_truth_hidden, hidden_flag_detections, detections, 100 * severity_agreement, 100 * area_within_2sigma,
       mean_sigma_area_pct, 100 * volume_within_2sigma, mean_sigma_volume_pct, seen_volume_error_pct.n, road_median_abs_mm, ms_damage_median, ms_damage_max,
-      cpu_ms_damage_median, ms_road_median, ms_segment_median, ms_measure_median, ms_cracks_median,
+      cpu_ms_damage_median, passes,
       ms_disparity_median);
   return s;
 }

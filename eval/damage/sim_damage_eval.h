@@ -134,7 +134,7 @@ struct SimDamageEvaluation {
   double disparity_valid_fraction = 0;  ///< mean share of valid disparities
   double ms_damage_median = 0, ms_damage_max = 0;  ///< DetectDamage wall time per frame
   double ms_disparity_median = 0;                  ///< ComputeDisparity wall time (0 with truth disparity)
-  double ms_road_median = 0, ms_segment_median = 0, ms_measure_median = 0, ms_cracks_median = 0;  ///< steps (wall)
+  std::vector<PassTime> pass_ms_median;  ///< median wall time of each pass of DetectDamage (DamagePassNames order)
   double cpu_ms_damage_median = 0;  ///< DetectDamage process CPU time (all threads): the one-core bound
   int width = 0, height = 0;
   double max_range_m = 0;  ///< scored range used (the largest over the frames)

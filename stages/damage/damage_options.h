@@ -1,6 +1,8 @@
 #pragma once
 // Options of the damage algorithms, registered once (survey/options.h) so the
 // stage glue derives the survey.json keys, CLI flags and schema from them.
+// Checked once where they enter (the stage's options, DetectDamage's callers,
+// SegmentTransformedDisparity): the per-frame and per-instance functions take them checked.
 
 #include "survey/options.h"
 
@@ -25,14 +27,12 @@ struct RoadModelOptions {
   /// The smoothing window covers a square on the road with about relief_smooth_px² pixels:
   /// in an oblique view (car) it is shorter and wider on the image (relief_smooth.h). A square
   /// image window there spans 3-5× more road along the driving direction than across and
-  /// smeared foreshortened potholes' rims outwards (area +20 to +60 % at 5-8 m); false: square
-  /// on the image.
+  /// smears foreshortened potholes' rims outwards; false: square on the image.
   bool relief_smooth_ground = true;
   /// Pixels whose transformed disparity differs from its smoothed value by more than this many
   /// σ (robust σ of that difference over the frame: the matching noise) keep their own values:
   /// the smoothing averages noise, not a pothole's rim or the occlusion edge at its near wall,
-  /// which it smeared onto the road beside (car, truth disparity: area +20 to +40 % for 0.3 m
-  /// potholes at 5-6 m); 0 = off.
+  /// which it would smear onto the road beside; 0 = off.
   double relief_smooth_edge_sigma = 16.0;
   /// Analysed range: disparities whose stereo depth uncertainty σ_Z = Z²·σ_d/(f·B) (σ_d =
   /// measure.sigma_disparity_px) exceeds this are dropped before the road fit (the far road of
@@ -59,8 +59,8 @@ struct SegmentOptions {
   /// region a pixel lies in, not one σ for the frame (stereo noise is not stationary), px; 0 = global σ.
   int noise_cell_px = 96;
   /// Calibrated, with the local noise map: a pixel at least this many local σ below the road seeds a
-  /// region whatever the frame's threshold (deep potholes elsewhere raise that to 13–14 σ and lost
-  /// 35–48 mm ones at 6 m that stand 8+ σ out where they lie; the pothole noise rule's own k); 0 = off.
+  /// region whatever the frame's threshold (deep potholes elsewhere raise that above shallow ones
+  /// that stand out where they lie; the pothole noise rule's own k); 0 = off.
   double seed_noise_sigma = 8.0;
   /// Calibrated, with the left image and noise_cell_px > 0: pixels near strong intensity steps
   /// (paint edges; StrongEdgeMask), where the matcher may err by more than shallow damage, get

@@ -1,17 +1,17 @@
 #include "stages/damage/damage_pipeline.h"
 
-#include "stages/damage/cracks.h"
-#include "stages/damage/damage_output.h"
-#include "stages/damage/floor_visibility.h"
-#include "stages/damage/image_edges.h"
-#include "stages/damage/measure.h"
+#include "stages/damage/cracks/cracks.h"
+#include "stages/damage/output/damage_output.h"
+#include "stages/damage/measure/floor_visibility.h"
+#include "stages/damage/noise/image_edges.h"
+#include "stages/damage/measure/measure.h"
 #include "survey/stats/order_statistic.h"
-#include "stages/damage/relief_noise.h"
-#include "stages/damage/relief_smooth.h"
-#include "stages/damage/road_islands.h"
-#include "stages/damage/severity.h"
-#include "stages/damage/sharp_disparity.h"
-#include "stages/damage/two_sided_noise.h"
+#include "stages/damage/noise/relief_noise.h"
+#include "stages/damage/road/relief_smooth.h"
+#include "stages/damage/road/road_islands.h"
+#include "stages/damage/grade/severity.h"
+#include "stages/damage/measure/sharp_disparity.h"
+#include "stages/damage/noise/two_sided_noise.h"
 
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -80,163 +80,272 @@ double NearestDepthM(const cv::Mat& disparity_px, const RectifiedStereo& g) {
   return g.f_px * g.baseline_m / KthSmallestInPlace(samples, QuantileRankDown(0.98, samples.size()));
 }
 
+namespace {
+
+// Per-frame state of DetectDamage: its inputs, what each pass hands on to the next, the result.
+struct DamageFrame {
+  DamageFrame(const cv::Mat& input_disparity_px, const cv::Mat& left_image, const RectifiedStereo& g,
+              const DamageOptions& o, const cv::Mat& sharp_disparity_px)
+      : input_disparity_px(input_disparity_px), left_image(left_image), g(g), o(o),
+        sharp_disparity_px(sharp_disparity_px),
+        want_edges(o.segment.noise_cell_px > 0 && !left_image.empty() && o.segment.edge_min_gradient > 0),
+        want_cracks(o.crack.enabled && !left_image.empty()) {}
+
+  const cv::Mat& input_disparity_px;
+  const cv::Mat& left_image;
+  const RectifiedStereo& g;
+  const DamageOptions& o;
+  const cv::Mat& sharp_disparity_px;
+  const bool want_edges;   ///< the paint-edge noise class applies
+  const bool want_cracks;  ///< crack detection applies
+
+  FrameDamage f;          ///< the result
+  cv::Mat disparity_px;   ///< within the analysed range (a new image: the caller's disparity is not changed)
+  RoadRelief evaluated;   ///< the road model's relief before FinishRoadRelief, kept for the refinement
+  ReliefImage relief;     ///< the segmentation's input: transformed disparity on the road (valid, not obstacle)
+  cv::Mat area;           ///< m² of road per pixel (NaN off-road)
+  cv::Mat islands;        ///< road cut off from the road (road_islands.h)
+  bool has_islands = false;
+  ReliefScale scale;      ///< the frame's road level and σ
+  cv::Mat reliable;       ///< road pixels off paint edges: the noise map's samples
+  cv::Mat noise;          ///< the seeds' noise (paint edges their own class)
+  cv::Mat road_noise;     ///< the pothole rule's noise (two-sided after the rim pass)
+  DepressionSegmentation seg;
+  cv::Mat measure_noise;  ///< the pothole rule's noise with the spike rule folded in
+  // Written by the image work alongside the road model and the segmentation.
+  cv::Mat edges, crack_response, pixel_size;
+  // Declared last: on an exception it is destroyed first, cancelled and waited for before the
+  // images it writes go.
+  tbb::task_group image_work;
+};
+
+// The image-only work (paint-edge mask) starts alongside the road model, whose fit is serial;
+// it is joined in "road mask".
+void StartPaintEdges(DamageFrame& s) {
+  s.image_work.run([&s] {
+    if (s.want_edges)
+      s.edges = StrongEdgeMask(s.left_image, s.o.segment.edge_min_gradient, s.o.segment.edge_margin_px);
+  });
+}
+
+// Disparities beyond the analysed range set to 0 (invalid).
+void LimitRange(DamageFrame& s) {
+  s.f.analysed_range_m = AnalysedRangeM(s.g, s.o, NearestDepthM(s.input_disparity_px, s.g));
+  if (const double z_max = s.f.analysed_range_m; std::isfinite(z_max))
+    cv::threshold(s.input_disparity_px, s.disparity_px, s.g.f_px * s.g.baseline_m / z_max, 0, cv::THRESH_TOZERO);
+  else
+    s.disparity_px = s.input_disparity_px;
+}
+
+void FitRoad(DamageFrame& s) { s.f.surface = FitRoadSurface(s.disparity_px, s.g, s.o.road); }
+
+void ComputeRelief(DamageFrame& s) {
+  s.evaluated = EvaluateRoadModel(s.disparity_px, s.g, s.f.surface, s.o.road);
+  s.f.relief = FinishRoadRelief(s.evaluated, s.disparity_px, s.g, s.f.surface, s.o.road);
+}
+
+// The road mask, the pixel sizes on the road and the road's islands; starts the crack response.
+void PrepareRoadMask(DamageFrame& s) {
+  s.image_work.wait();  // rethrows the image work's exception, if any
+  s.relief = ReliefImage{s.f.relief.transformed_disparity_px, s.f.relief.valid_mask & (s.f.relief.obstacle_mask == 0),
+                         RoadRowElongation(s.disparity_px.rows, s.g, s.f.surface.normal)};
+  s.area = PixelAreaOnRoad(s.f.relief, s.g, s.f.surface);
+  cv::sqrt(s.area, s.pixel_size);  // metres per pixel on the road (NaN off-road)
+  // Patches of "road" cut off from the road by obstacle and unmatched pixels are mismatches on
+  // an obstacle (road_islands.h): no damage is found on them.
+  s.islands = RoadIslandMask(s.relief.valid, s.area, s.o.road.min_region_m2);
+  s.has_islands = cv::countNonZero(s.islands) > 0;
+  // The crack response needs the pixel sizes (element sized on the road): alongside the segmentation.
+  if (s.want_cracks)
+    s.image_work.run([&s] { s.crack_response = CrackResponse(s.left_image, s.o.crack, s.pixel_size); });
+}
+
+// Seeds must be significant against the noise where they lie (LocalReliefNoise, never below the
+// frame's σ). Pixels next to strong image steps (paint edges) form their own noise class,
+// estimated from those pixels alone: where the matcher fails there they can neither seed a
+// depression nor carry one along the paint, where it does not they are road like any other.
+void BuildNoiseMaps(DamageFrame& s) {
+  s.scale = EstimateReliefScale(s.relief);
+  const int cell_px = s.o.segment.noise_cell_px;
+  if (cell_px <= 0) return;
+  // A new image where edges are left out: relief.valid itself must not change.
+  s.reliable = s.edges.empty() ? s.relief.valid : cv::Mat(s.relief.valid & (s.edges == 0));
+  s.noise = LocalReliefNoise(s.relief.value, s.reliable, s.scale.road_level, cell_px, s.scale.sigma,
+                             kStructureSigmaRatio);
+  s.road_noise = s.noise;  // shared until the edge class changes `noise`
+  if (s.edges.empty() || cv::countNonZero(s.edges) == 0) return;
+  const cv::Mat edge_noise =
+      LocalReliefNoise(s.relief.value, s.relief.valid & s.edges, s.scale.road_level, cell_px, s.scale.sigma);
+  cv::Mat merged(s.noise.size(), CV_32F);  // `noise` may be road_noise: not changed
+  tbb::parallel_for(0, s.noise.rows, [&](int v) {
+    const float* n = s.noise.ptr<float>(v);
+    const float* en = edge_noise.ptr<float>(v);
+    const uchar* e = s.edges.ptr<uchar>(v);
+    float* m = merged.ptr<float>(v);
+    for (int u = 0; u < s.noise.cols; ++u) m[u] = e[u] ? std::max(n[u], en[u]) : n[u];
+  });
+  s.noise = merged;
+}
+
+void Segment(DamageFrame& s) {
+  s.seg = SegmentDepressions(s.relief, s.o.segment, s.area, s.scale, s.noise, s.noise.empty() ? cv::Mat() : s.edges);
+  s.f.labels = s.seg.labels;
+  s.f.threshold_sigma = s.seg.threshold_sigma;
+}
+
+// Obstacle pixels were measured above the road: never damage. The segmentation sees them only
+// as pixels without relief and absorbs such patches into a depression they border. Islands
+// likewise, after the segmentation (the noise maps keep them): a depression mostly on one goes
+// whole, with the unmatched pixels it took in.
+void RemoveObstacles(DamageFrame& s) {
+  s.f.labels.setTo(0, s.f.relief.obstacle_mask);
+  if (s.has_islands) RemoveIslandLabels(s.f.labels, s.islands, s.relief.valid);
+}
+
+// The local road correction, recomputed without the found depressions (grown by half a cell),
+// no longer leans into large shallow damage: depths and rims are measured on it.
+bool WantsRefinement(const DamageFrame& s) { return s.o.road.local_cell_px > 0 && s.seg.count > 0; }
+void RefineRoad(DamageFrame& s) {
+  // Dilated at quarter resolution: a full-resolution disk costs more than the rest of the
+  // segmentation, and the cell medians need no pixel accuracy.
+  constexpr int kScale = 4;
+  const int r = std::max(1, s.o.road.local_cell_px / (2 * kScale));
+  const cv::Mat& labels = s.f.labels;
+  cv::Mat small, exclude;
+  cv::resize(labels != 0, small, cv::Size((labels.cols + kScale - 1) / kScale, (labels.rows + kScale - 1) / kScale), 0,
+             0, cv::INTER_AREA);
+  cv::dilate(small > 0, small, cv::getStructuringElement(cv::MORPH_ELLIPSE, {2 * r + 1, 2 * r + 1}));
+  cv::resize(small, exclude, labels.size(), 0, 0, cv::INTER_NEAREST);
+  RefineRoadRelief(s.f.relief, s.evaluated, s.disparity_px, s.g, s.f.surface, s.o.road, exclude);
+}
+
+void ExtendRims(DamageFrame& s) {
+  const SegmentOptions& so = s.o.segment;
+  ExtendToRim(s.f.labels, s.f.relief, so.rim_depth_m, so.rim_depth_fraction,
+              so.rim_ring_mean ? s.o.road.relief_smooth_px : 0, s.relief.row_elongation, s.evaluated.depth_below_mm);
+}
+
+// The pothole rule's noise: beside a kerb the road rises where the model does not follow, which
+// is not matching noise (TwoSidedReliefNoise); on each depression its spread below leaves that
+// depression out (its own walls are not the road's noise). The seeds keep the one-sided noise.
+// The spike rule is folded in (measured over the instance as one mean): max depth ≥
+// min_noise_sigma · max(noise, spikes · spike_ratio / min_noise_sigma). Edge pixels are
+// included in the spikes: wrong winners gather there.
+void BuildPotholeNoise(DamageFrame& s) {
+  const MeasureOptions& mo = s.o.measure;
+  const int cell_px = s.o.segment.noise_cell_px;
+  if (!s.road_noise.empty() && mo.pothole_min_noise_sigma > 0 && mo.pothole_noise_two_sided)
+    s.road_noise = TwoSidedReliefNoise(s.road_noise, s.relief.value, s.reliable, s.scale.road_level, cell_px,
+                                       s.scale.sigma, kStructureSigmaRatio, kMatchingNoiseMaxAsymmetry, s.f.labels);
+  s.measure_noise = mo.pothole_min_noise_sigma > 0 ? s.road_noise : cv::Mat();
+  if (s.measure_noise.empty() || !(mo.pothole_min_spike_ratio > 0)) return;
+  const cv::Mat spikes = LocalReliefSpikes(s.relief.value, s.relief.valid, s.scale.road_level, cell_px, s.scale.sigma,
+                                           kStructureSigmaRatio, mo.spike_quantile);
+  // max(road_noise, spikes · k) in one pass (as cv::max of the scaled copy: OpenCV scales a
+  // float image by the float factor, one rounding).
+  const float k = static_cast<float>(mo.pothole_min_spike_ratio / mo.pothole_min_noise_sigma);
+  s.measure_noise = cv::Mat(s.road_noise.size(), CV_32F);  // a new image: road_noise is kept
+  tbb::parallel_for(0, s.road_noise.rows, [&](int v) {
+    const float* rn = s.road_noise.ptr<float>(v);
+    const float* sp = spikes.ptr<float>(v);
+    float* m = s.measure_noise.ptr<float>(v);
+    for (int u = 0; u < s.road_noise.cols; ++u) m[u] = std::max(rn[u], sp[u] * k);
+  });
+}
+
+void Measure(DamageFrame& s) {
+  // The volume is summed on the disparity stage's sharp image where given (sharp_disparity.h).
+  const cv::Mat sharp_depth_mm =
+      s.sharp_disparity_px.empty()
+          ? cv::Mat()
+          : SharpDepthBelowMm(s.sharp_disparity_px, s.disparity_px, s.f.labels, s.g, s.f.surface,
+                              s.f.relief.correction_mm);
+  s.f.instances =
+      MeasureDepressions(s.f.labels, s.f.relief, s.g, s.f.surface, s.o.measure, s.measure_noise, sharp_depth_mm);
+}
+
+// Oblique views: may the near rim hide the floor (depth and volume then lower bounds)?
+void FloorVisibility(DamageFrame& s) {
+  AnalyseFloorVisibility(s.f.instances, s.f.labels, s.f.relief, s.g, s.f.surface, s.o.measure);
+}
+
+bool WantsCracks(const DamageFrame& s) { return s.want_cracks; }
+void Cracks(DamageFrame& s) {
+  s.image_work.wait();
+  // relief.valid: the road mask (valid, not obstacle), here without its islands; RefineRoadRelief changes neither mask.
+  const cv::Mat crack_road = s.has_islands ? cv::Mat(s.relief.valid & (s.islands == 0)) : s.relief.valid;
+  const CrackDetection cracks =
+      DetectCracks(s.left_image, crack_road, s.f.labels != 0, s.pixel_size, s.o.crack, s.crack_response);
+  AddCracks(cracks, s.f.labels, s.f.instances);
+}
+
+// Cracks get their range and σ_Z; every instance its grades.
+void Grade(DamageFrame& s) {
+  const std::vector<cv::Rect> boxes = LabelBoxes(s.f.labels);
+  for (DamageInstance& d : s.f.instances) {
+    if (d.type == DamageType::kCrack && d.id < static_cast<int>(boxes.size()) && !boxes[d.id].empty()) {
+      const cv::Rect& b = boxes[d.id];
+      d.range_m = cv::mean(s.f.relief.road_depth_m(b), s.f.labels(b) == d.id)[0];
+      d.sigma_depth_m = StereoDepthSigma(d.range_m, s.o.measure.sigma_disparity_px, s.g);
+    }
+    GradeInstance(d, s.o.severity);
+  }
+}
+
+// One pass of DetectDamage; `applies` (null: always) skips it for the frame.
+struct DamagePass {
+  const char* name;
+  void (*run)(DamageFrame&);
+  bool (*applies)(const DamageFrame&) = nullptr;
+};
+
+// The algorithm, in order.
+const DamagePass kPasses[] = {
+    {"paint edges", StartPaintEdges},
+    {"range limit", LimitRange},
+    {"road fit", FitRoad},
+    {"relief", ComputeRelief},
+    {"road mask", PrepareRoadMask},
+    {"noise map", BuildNoiseMaps},
+    {"segmentation", Segment},
+    {"obstacle removal", RemoveObstacles},
+    {"road refinement", RefineRoad, WantsRefinement},
+    {"rim", ExtendRims},
+    {"pothole noise", BuildPotholeNoise},
+    {"measurement", Measure},
+    {"floor visibility", FloorVisibility},
+    {"cracks", Cracks, WantsCracks},
+    {"grading", Grade},
+};
+
+}  // namespace
+
+double FrameDamage::PassMs(std::string_view name) const {
+  for (const PassTime& p : pass_ms)
+    if (p.name == name) return p.ms;
+  return 0;
+}
+
+std::vector<std::string> DamagePassNames() {
+  std::vector<std::string> names;
+  for (const DamagePass& p : kPasses) names.emplace_back(p.name);
+  return names;
+}
+
 FrameDamage DetectDamage(const cv::Mat& input_disparity_px, const cv::Mat& left_image, const RectifiedStereo& g,
                          const DamageOptions& o, const cv::Mat& sharp_disparity_px) {
-  o.Check();
   if (!left_image.empty() && left_image.size() != input_disparity_px.size())
     throw std::invalid_argument("DetectDamage: left image and disparity differ in size");
   if (!g.Valid()) throw std::invalid_argument("DetectDamage: stereo geometry needs f > 0 and baseline > 0");
   if (input_disparity_px.type() != CV_32FC1) throw std::invalid_argument("DetectDamage: disparity must be CV_32FC1");
-  FrameDamage f;
-  auto t0 = std::chrono::steady_clock::now();
-  // The image-only work (paint-edge mask, crack black-hat response) runs alongside the road
-  // model, whose fit is serial. Declared after its outputs: on an exception the group is
-  // cancelled and waited for before they go.
-  const bool want_edges = o.segment.noise_cell_px > 0 && !left_image.empty() && o.segment.edge_min_gradient > 0;
-  const bool want_cracks = o.crack.enabled && !left_image.empty();
-  cv::Mat edges, crack_response, pixel_size;
-  tbb::task_group image_work;
-  image_work.run([&] {
-    if (want_edges) edges = StrongEdgeMask(left_image, o.segment.edge_min_gradient, o.segment.edge_margin_px);
-  });
-  cv::Mat disparity_px;  // a new image: the caller's disparity is not changed
-  f.analysed_range_m = AnalysedRangeM(g, o, NearestDepthM(input_disparity_px, g));
-  if (const double z_max = f.analysed_range_m; std::isfinite(z_max))  // beyond: set to 0 (invalid)
-    cv::threshold(input_disparity_px, disparity_px, g.f_px * g.baseline_m / z_max, 0, cv::THRESH_TOZERO);
-  else
-    disparity_px = input_disparity_px;
-  f.surface = FitRoadSurface(disparity_px, g, o.road);
-  const RoadRelief evaluated = EvaluateRoadModel(disparity_px, g, f.surface, o.road);
-  f.relief = FinishRoadRelief(evaluated, disparity_px, g, f.surface, o.road);  // `evaluated` kept for the refinement
-  f.ms_road = MsSince(t0);
-
-  t0 = std::chrono::steady_clock::now();
-  image_work.wait();  // rethrows the image work's exception, if any
-  ReliefImage relief{f.relief.transformed_disparity_px, f.relief.valid_mask & (f.relief.obstacle_mask == 0),
-                     RoadRowElongation(disparity_px.rows, g, f.surface.normal)};
-  const cv::Mat area = PixelAreaOnRoad(f.relief, g, f.surface);
-  cv::sqrt(area, pixel_size);  // metres per pixel on the road (NaN off-road)
-  // Patches of "road" cut off from the road by obstacle and unmatched pixels are mismatches on
-  // an obstacle (road_islands.h): no damage is found on them.
-  const cv::Mat islands = RoadIslandMask(relief.valid, area, o.road.min_region_m2);
-  const bool has_islands = cv::countNonZero(islands) > 0;
-  // The crack response needs the pixel sizes (element sized on the road): alongside the segmentation.
-  if (want_cracks) image_work.run([&] { crack_response = CrackResponse(left_image, o.crack, pixel_size); });
-  const ReliefScale scale = EstimateReliefScale(relief);
-  // Seeds must be significant against the noise where they lie (LocalReliefNoise, never below
-  // the frame's σ). Pixels next to strong image steps (paint edges) form their own noise class,
-  // estimated from those pixels alone: where the matcher fails there (0.3-1 px) they can neither
-  // seed a depression nor carry one along the paint (they grow only as deep as they seed), where
-  // it does not (the truth disparity) they are road like any other.
-  cv::Mat noise, road_noise, reliable;
-  if (o.segment.noise_cell_px > 0) {
-    // A new image: assigned to a copy of relief.valid's header, the expression was written into
-    // relief.valid itself and cleared every edge pixel from the segmentation (a pothole under an
-    // edge line: car, truth disparity, IoU 0.53; docs/stages/damage.md "Paint edges").
-    reliable = edges.empty() ? relief.valid : cv::Mat(relief.valid & (edges == 0));
-    // Road samples beyond 40 frame σ above the road are structure (the smoothed fringe of an
-    // obstacle, the model bent beside it), not matching noise; at paint edges they are the noise.
-    noise = LocalReliefNoise(relief.value, reliable, scale.road_level, o.segment.noise_cell_px, scale.sigma, 40.0);
-    road_noise = noise;  // shared until the edge class changes `noise`
-    if (!edges.empty() && cv::countNonZero(edges) > 0) {
-      const cv::Mat edge_noise =
-          LocalReliefNoise(relief.value, relief.valid & edges, scale.road_level, o.segment.noise_cell_px, scale.sigma);
-      cv::Mat merged(noise.size(), CV_32F);  // `noise` may be road_noise: not changed
-      tbb::parallel_for(0, noise.rows, [&](int v) {
-        const float* n = noise.ptr<float>(v);
-        const float* en = edge_noise.ptr<float>(v);
-        const uchar* e = edges.ptr<uchar>(v);
-        float* m = merged.ptr<float>(v);
-        for (int u = 0; u < noise.cols; ++u) m[u] = e[u] ? std::max(n[u], en[u]) : n[u];
-      });
-      noise = merged;
-    }
+  DamageFrame s(input_disparity_px, left_image, g, o, sharp_disparity_px);
+  for (const DamagePass& p : kPasses) {
+    if (p.applies && !p.applies(s)) continue;
+    const auto t0 = std::chrono::steady_clock::now();
+    p.run(s);
+    s.f.pass_ms.push_back({p.name, MsSince(t0)});
   }
-  const DepressionSegmentation seg =
-      SegmentDepressions(relief, o.segment, area, scale, noise, noise.empty() ? cv::Mat() : edges);
-  f.labels = seg.labels;
-  // Obstacle pixels were measured above the road: never damage. The segmentation sees them only
-  // as pixels without relief, like stereo dropouts, and absorbs such patches into a depression
-  // they border: a parked car beside a false depression became a 15 m² "pothole" (obstacles
-  // preset, truth disparity).
-  f.labels.setTo(0, f.relief.obstacle_mask);
-  // Islands likewise, after the segmentation (the noise maps keep them, as before): a
-  // depression mostly on one goes whole, with the unmatched pixels it took in.
-  if (has_islands) RemoveIslandLabels(f.labels, islands, relief.valid);
-  f.threshold_sigma = seg.threshold_sigma;
-  if (o.road.local_cell_px > 0 && seg.count > 0) {
-    // The local road correction, recomputed without the found depressions (grown by half a
-    // cell), no longer leans into large shallow damage: depths and rims are measured on it.
-    // Dilated at quarter resolution: a 49×49 disk at full resolution costs more than the
-    // rest of the segmentation, and the cell medians need no pixel accuracy.
-    const int r = std::max(1, o.road.local_cell_px / 8);
-    cv::Mat small, exclude;
-    cv::resize(f.labels != 0, small, cv::Size((f.labels.cols + 3) / 4, (f.labels.rows + 3) / 4), 0, 0,
-               cv::INTER_AREA);
-    cv::dilate(small > 0, small, cv::getStructuringElement(cv::MORPH_ELLIPSE, {2 * r + 1, 2 * r + 1}));
-    cv::resize(small, exclude, f.labels.size(), 0, 0, cv::INTER_NEAREST);
-    RefineRoadRelief(f.relief, evaluated, disparity_px, g, f.surface, o.road, exclude);
-  }
-  ExtendToRim(f.labels, f.relief, o.segment.rim_depth_m, o.segment.rim_depth_fraction,
-              o.segment.rim_ring_mean ? o.road.relief_smooth_px : 0, relief.row_elongation,
-              evaluated.depth_below_mm);
-  // The pothole rule's noise: beside a kerb the road rises where the model does not follow,
-  // which is not matching noise (TwoSidedReliefNoise); on each depression its spread below
-  // leaves that depression out (its own walls are not the road's noise). The seeds keep the
-  // one-sided noise.
-  if (!road_noise.empty() && o.measure.pothole_min_noise_sigma > 0 && o.measure.pothole_noise_two_sided)
-    road_noise = TwoSidedReliefNoise(road_noise, relief.value, reliable, scale.road_level, o.segment.noise_cell_px,
-                                     scale.sigma, 40.0, 2.0, f.labels);
-  f.ms_segment = MsSince(t0);
-
-  t0 = std::chrono::steady_clock::now();
-  cv::Mat measure_noise = o.measure.pothole_min_noise_sigma > 0 ? road_noise : cv::Mat();
-  if (!measure_noise.empty() && o.measure.pothole_min_spike_ratio > 0) {
-    // The spike rule folded into the noise rule (measured over the instance as one mean):
-    // max depth ≥ min_noise_sigma · max(noise, spikes · spike_ratio / min_noise_sigma). Edge
-    // pixels are included: wrong winners gather there.
-    const cv::Mat spikes = LocalReliefSpikes(relief.value, relief.valid, scale.road_level, o.segment.noise_cell_px,
-                                             scale.sigma, 40.0, o.measure.spike_quantile);
-    // max(road_noise, spikes · k) in one pass (as cv::max of the scaled copy: OpenCV scales a
-    // float image by the float factor, one rounding).
-    const float k = static_cast<float>(o.measure.pothole_min_spike_ratio / o.measure.pothole_min_noise_sigma);
-    measure_noise = cv::Mat(road_noise.size(), CV_32F);  // a new image: road_noise is kept
-    tbb::parallel_for(0, road_noise.rows, [&](int v) {
-      const float* rn = road_noise.ptr<float>(v);
-      const float* sp = spikes.ptr<float>(v);
-      float* m = measure_noise.ptr<float>(v);
-      for (int u = 0; u < road_noise.cols; ++u) m[u] = std::max(rn[u], sp[u] * k);
-    });
-  }
-  // The volume is summed on the disparity stage's sharp image where given (sharp_disparity.h).
-  const cv::Mat sharp_depth_mm =
-      sharp_disparity_px.empty()
-          ? cv::Mat()
-          : SharpDepthBelowMm(sharp_disparity_px, disparity_px, f.labels, g, f.surface, f.relief.correction_mm);
-  f.instances = MeasureDepressions(f.labels, f.relief, g, f.surface, o.measure, measure_noise, sharp_depth_mm);
-  // Oblique views: may the near rim hide the floor (depth and volume then lower bounds)?
-  AnalyseFloorVisibility(f.instances, f.labels, f.relief, g, f.surface, o.measure);
-  f.ms_measure = MsSince(t0);
-
-  if (o.crack.enabled && !left_image.empty()) {
-    t0 = std::chrono::steady_clock::now();
-    image_work.wait();
-    // relief.valid: the road mask (valid, not obstacle), here without its islands; RefineRoadRelief changes neither mask.
-    const cv::Mat crack_road = has_islands ? cv::Mat(relief.valid & (islands == 0)) : relief.valid;
-    const CrackDetection cracks = DetectCracks(left_image, crack_road, f.labels != 0, pixel_size, o.crack, crack_response);
-    AddCracks(cracks, f.labels, f.instances);
-    f.ms_cracks = MsSince(t0);
-  }
-  const std::vector<cv::Rect> boxes = LabelBoxes(f.labels);
-  for (DamageInstance& d : f.instances) {
-    if (d.type == DamageType::kCrack && d.id < static_cast<int>(boxes.size()) && !boxes[d.id].empty()) {
-      const cv::Rect& b = boxes[d.id];
-      d.range_m = cv::mean(f.relief.road_depth_m(b), f.labels(b) == d.id)[0];
-      d.sigma_depth_m = StereoDepthSigma(d.range_m, o.measure.sigma_disparity_px, g);
-    }
-    GradeInstance(d, o.severity);
-  }
-  return f;
+  return std::move(s.f);
 }
 
 TransformedSegmentation SegmentTransformedDisparity(const cv::Mat& transformed, const cv::Mat& left_image,

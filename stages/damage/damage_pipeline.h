@@ -5,12 +5,14 @@
 
 #include "stages/damage/damage_options.h"
 #include "stages/damage/damage_types.h"
-#include "stages/damage/road_surface.h"
-#include "stages/damage/segmentation.h"
+#include "stages/damage/road/road_surface.h"
+#include "stages/damage/segment/segmentation.h"
 
 #include <opencv2/core.hpp>
 
 #include <optional>
+#include <string>
+#include <string_view>
 #include <vector>
 
 namespace rs {
@@ -25,6 +27,12 @@ struct DamageOptions {
   void Check() const;
 };
 
+/// Wall time of one pass of DetectDamage.
+struct PassTime {
+  std::string name;  ///< as in DamagePassNames()
+  double ms = 0;
+};
+
 /// Per-frame result.
 struct FrameDamage {
   RoadSurface surface;
@@ -33,8 +41,16 @@ struct FrameDamage {
   std::vector<DamageInstance> instances;  ///< graded, ids match `labels`
   double threshold_sigma = 0;             ///< segmentation threshold, σ below the road
   double analysed_range_m = 0;            ///< farthest camera depth analysed (AnalysedRangeM), m
-  double ms_road = 0, ms_segment = 0, ms_cracks = 0, ms_measure = 0;  ///< timings
+  std::vector<PassTime> pass_ms;          ///< wall time of each pass run, in order (skipped passes absent)
+  /// Wall time of the pass `name`, 0 when it did not run.
+  double PassMs(std::string_view name) const;
 };
+
+/// The passes of DetectDamage, in the order they run (a pass may be skipped by the options or
+/// the frame): "paint edges", "range limit", "road fit", "relief", "road mask", "noise map",
+/// "segmentation", "obstacle removal", "road refinement", "rim", "pothole noise",
+/// "measurement", "floor visibility", "cracks", "grading".
+std::vector<std::string> DamagePassNames();
 
 /// Farthest camera depth analysed: where σ_Z(Z) = Z²·σ_d/(f·B) reaches road.max_depth_sigma_m
 /// (infinite when 0), but at least road.min_range_factor × `nearest_depth_m` (the frame's
@@ -50,7 +66,8 @@ double NearestDepthM(const cv::Mat& disparity_px, const RectifiedStereo& geometr
 /// disparities beyond AnalysedRangeM are ignored. `sharp_disparity_px` (optional, CV_32F of the
 /// same size): the disparity stage's second image (its small refinement window alone), on which
 /// the volumes are summed (sharp_disparity.h); empty = the one image throughout.
-/// Throws std::invalid_argument on bad inputs or options.
+/// `options` must have passed DamageOptions::Check() (the caller checks once, not per frame).
+/// Throws std::invalid_argument on bad inputs.
 FrameDamage DetectDamage(const cv::Mat& disparity_px, const cv::Mat& left_image, const RectifiedStereo& geometry,
                          const DamageOptions& options, const cv::Mat& sharp_disparity_px = cv::Mat());
 
@@ -64,6 +81,7 @@ struct TransformedSegmentation {
   ReliefScale scale;
   double threshold_sigma = 0;
 };
+/// Checks `options` (std::invalid_argument or OptionError).
 TransformedSegmentation SegmentTransformedDisparity(const cv::Mat& transformed, const cv::Mat& left_image,
                                                     const DamageOptions& options,
                                                     std::optional<ReliefScale> scale = std::nullopt);

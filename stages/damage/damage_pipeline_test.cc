@@ -1,7 +1,7 @@
 #include "stages/damage/damage_pipeline.h"
 #include "sim/synthetic_damage_scene.h"
 
-#include "stages/damage/damage_output.h"
+#include "stages/damage/output/damage_output.h"
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>

@@ -7,7 +7,7 @@
 #include "formats/disparity/disparity_io.h"
 #include "formats/stereo/calibration_yaml.h"
 #include "formats/stereo/image_io.h"
-#include "stages/damage/damage_output.h"
+#include "stages/damage/output/damage_output.h"
 #include "survey/atomic_file.h"
 
 namespace rs {
