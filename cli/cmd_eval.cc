@@ -95,11 +95,14 @@ int RunEvalDisparity(const DisparityArgs& a) {
     if (pairs.size() > 1) table += Row("", "mask", PoolMetrics(masked));
   }
   if (a.json != "-") fmt::print("{}", table);
-  if (a.json != "-") fmt::print("bad-N, D1: share of truth pixels with |d - gt| > N px (D1: > 3 px and > 5 %) or no estimate; "
-             "EPE over valid estimates\n");
+  if (a.json != "-")
+    fmt::print(
+        "bad-N, D1: share of truth pixels with |d - gt| > N px (D1: > 3 px and > 5 %) or no estimate; "
+        "EPE over valid estimates\n");
   if (!a.json.empty())
-    WriteTextOutput(a.json, nlohmann::json{{"schema", "roadsurvey.eval_disparity/1"}, {"files", files}, {"total", total}}
-                                    .dump(2) + "\n");
+    WriteTextOutput(
+        a.json,
+        nlohmann::json{{"schema", "roadsurvey.eval_disparity/1"}, {"files", files}, {"total", total}}.dump(2) + "\n");
   return kExitOk;
 }
 
@@ -148,7 +151,8 @@ std::vector<DamageInstance> ReadDetections(const fs::path& path) {
       throw InputError(InputLocation::File(path.string()), "a detection without an integer \"id\"");
     DamageInstance inst;
     inst.id = d["id"].get<int>();
-    inst.area_m2 = Field(d, "area_m2"), inst.max_depth_m = Field(d, "max_depth_m"), inst.volume_m3 = Field(d, "volume_m3");
+    inst.area_m2 = Field(d, "area_m2"), inst.max_depth_m = Field(d, "max_depth_m"),
+    inst.volume_m3 = Field(d, "volume_m3");
     out.push_back(inst);
   }
   return out;
@@ -197,8 +201,8 @@ int RunEvalDamage(const DamageArgs& a) {
   int predicted = 0, truth_n = 0, tp = 0;
   ErrorSummary area, depth, volume;
   nlohmann::json files = nlohmann::json::array();
-  std::string table = fmt::format("{:<24} {:>9} {:>7} {:>7} {:>7} {:>5} {:>5} {:>4} {:>4} {:>4}\n", "file",
-                                  "precision", "recall", "F1", "IoU", "pred", "truth", "TP", "FP", "FN");
+  std::string table = fmt::format("{:<24} {:>9} {:>7} {:>7} {:>7} {:>5} {:>5} {:>4} {:>4} {:>4}\n", "file", "precision",
+                                  "recall", "F1", "IoU", "pred", "truth", "TP", "FP", "FN");
   for (const auto& p : pairs) {
     const cv::Mat pred = ReadLabels(p.est, false), gt = ReadLabels(p.truth, a.components);
     if (pred.size() != gt.size())
@@ -217,19 +221,31 @@ int RunEvalDamage(const DamageArgs& a) {
     for (const auto& m : inst.matches) {
       area.Add(m.area_error_m2), depth.Add(m.max_depth_error_m), volume.Add(m.volume_error_m3);
       auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
-      matches.push_back({{"predicted_id", m.predicted_id}, {"truth_id", m.truth_id}, {"iou", m.iou},
-                         {"area_error_m2", num(m.area_error_m2)}, {"max_depth_error_m", num(m.max_depth_error_m)},
+      matches.push_back({{"predicted_id", m.predicted_id},
+                         {"truth_id", m.truth_id},
+                         {"iou", m.iou},
+                         {"area_error_m2", num(m.area_error_m2)},
+                         {"max_depth_error_m", num(m.max_depth_error_m)},
                          {"volume_error_m3", num(m.volume_error_m3)}});
     }
     table += fmt::format("{:<24} {:>9.3f} {:>7.3f} {:>7.3f} {:>7.3f} {:>5} {:>5} {:>4} {:>4} {:>4}\n", p.name,
                          px.precision, px.recall, px.f1, px.iou, inst.predicted, inst.truth, inst.matches.size(),
                          inst.false_positives, inst.false_negatives);
     files.push_back({{"name", p.name},
-                     {"pixels", {{"tp", px.tp}, {"fp", px.fp}, {"fn", px.fn}, {"precision", px.precision},
-                                 {"recall", px.recall}, {"f1", px.f1}, {"iou", px.iou}}},
-                     {"instances", {{"predicted", inst.predicted}, {"truth", inst.truth},
-                                    {"false_positives", inst.false_positives},
-                                    {"false_negatives", inst.false_negatives}, {"matches", matches}}}});
+                     {"pixels",
+                      {{"tp", px.tp},
+                       {"fp", px.fp},
+                       {"fn", px.fn},
+                       {"precision", px.precision},
+                       {"recall", px.recall},
+                       {"f1", px.f1},
+                       {"iou", px.iou}}},
+                     {"instances",
+                      {{"predicted", inst.predicted},
+                       {"truth", inst.truth},
+                       {"false_positives", inst.false_positives},
+                       {"false_negatives", inst.false_negatives},
+                       {"matches", matches}}}});
   }
   pooled.Finish();
   const double ip = predicted ? double(tp) / predicted : 0, ir = truth_n ? double(tp) / truth_n : 0;
@@ -238,9 +254,11 @@ int RunEvalDamage(const DamageArgs& a) {
                        fmt::format("TOTAL ({} files)", pairs.size()), pooled.precision, pooled.recall, pooled.f1,
                        pooled.iou, predicted, truth_n, tp, predicted - tp, truth_n - tp);
   if (a.json != "-") fmt::print("{}", table);
-  if (a.json != "-") fmt::print("pixels: damage vs no damage, pooled over files; instances: one-to-one at IoU >= {:.2f}: "
-             "precision {:.3f}, recall {:.3f}, F1 {:.3f}\n",
-             a.min_iou, ip, ir, if1);
+  if (a.json != "-")
+    fmt::print(
+        "pixels: damage vs no damage, pooled over files; instances: one-to-one at IoU >= {:.2f}: "
+        "precision {:.3f}, recall {:.3f}, F1 {:.3f}\n",
+        a.min_iou, ip, ir, if1);
   auto line = [](const char* what, const ErrorSummary& s, double unit, const char* u) {
     if (s.n == 0) return fmt::format("  {:<10} no pair with both values\n", what);
     return fmt::format("  {:<10} bias {:+.4g} {}, mean |error| {:.4g} {} over {} matches\n", what, s.bias / s.n * unit,
@@ -250,14 +268,28 @@ int RunEvalDamage(const DamageArgs& a) {
     fmt::print("measurement errors (predicted - truth):\n{}{}{}", line("area", area, 1e4, "cm2"),
                line("max depth", depth, 1e3, "mm"), line("volume", volume, 1e6, "cm3"));
   if (!a.json.empty()) {
-    nlohmann::json total = {
-        {"pixels", {{"tp", pooled.tp}, {"fp", pooled.fp}, {"fn", pooled.fn}, {"precision", pooled.precision},
-                    {"recall", pooled.recall}, {"f1", pooled.f1}, {"iou", pooled.iou}}},
-        {"instances", {{"predicted", predicted}, {"truth", truth_n}, {"matched", tp}, {"precision", ip},
-                       {"recall", ir}, {"f1", if1}, {"min_iou", a.min_iou}}},
-        {"area_error_m2", area.Json()}, {"max_depth_error_m", depth.Json()}, {"volume_error_m3", volume.Json()}};
-    WriteTextOutput(a.json, nlohmann::json{{"schema", "roadsurvey.eval_damage/1"}, {"files", files}, {"total", total}}
-                                    .dump(2) + "\n");
+    nlohmann::json total = {{"pixels",
+                             {{"tp", pooled.tp},
+                              {"fp", pooled.fp},
+                              {"fn", pooled.fn},
+                              {"precision", pooled.precision},
+                              {"recall", pooled.recall},
+                              {"f1", pooled.f1},
+                              {"iou", pooled.iou}}},
+                            {"instances",
+                             {{"predicted", predicted},
+                              {"truth", truth_n},
+                              {"matched", tp},
+                              {"precision", ip},
+                              {"recall", ir},
+                              {"f1", if1},
+                              {"min_iou", a.min_iou}}},
+                            {"area_error_m2", area.Json()},
+                            {"max_depth_error_m", depth.Json()},
+                            {"volume_error_m3", volume.Json()}};
+    WriteTextOutput(
+        a.json,
+        nlohmann::json{{"schema", "roadsurvey.eval_damage/1"}, {"files", files}, {"total", total}}.dump(2) + "\n");
   }
   return kExitOk;
 }
@@ -269,7 +301,7 @@ RelativeDelta ParseDelta(const std::string& text, const std::string& flag) {
   RelativeDelta d;
   std::string number = text;
   if (!text.empty() && std::string("fsm").find(text.back()) != std::string::npos) {
-    d.unit = text.back() == 's' ? RelativeDelta::Unit::kSeconds
+    d.unit = text.back() == 's'   ? RelativeDelta::Unit::kSeconds
              : text.back() == 'm' ? RelativeDelta::Unit::kMeters
                                   : RelativeDelta::Unit::kFrames;
     number.pop_back();
@@ -282,8 +314,8 @@ RelativeDelta ParseDelta(const std::string& text, const std::string& flag) {
   }
   const bool whole = d.unit != RelativeDelta::Unit::kFrames || d.value == std::floor(d.value);
   if (number.empty() || used != number.size() || !(d.value > 0) || !std::isfinite(d.value) || !whole)
-    throw OptionError(fmt::format("{} = '{}' violates N (frames, whole), Ns (seconds) or Nm (metres) with N > 0",
-                                  flag, text));
+    throw OptionError(
+        fmt::format("{} = '{}' violates N (frames, whole), Ns (seconds) or Nm (metres) with N > 0", flag, text));
   return d;
 }
 
@@ -308,9 +340,7 @@ int RunEvalTrajectory(const TrajectoryArgs& a) {
   o.rde_delta = ParseDelta(a.rde_delta, "--rde-delta");
   o.rpe_delta = ParseDelta(a.rpe_delta, "--rpe-delta");
   if (const std::string problem = o.Check(); !problem.empty()) throw OptionError(problem);
-  auto format = [](const std::string& name) {
-    return name == "auto" ? std::nullopt : ParseTrajectoryFormat(name);
-  };
+  auto format = [](const std::string& name) { return name == "auto" ? std::nullopt : ParseTrajectoryFormat(name); };
   std::optional<fs::path> times;
   if (!a.kitti_times.empty()) times = a.kitti_times;
   const Trajectory est = ReadTrajectory(a.est, format(a.format), times);
@@ -324,9 +354,9 @@ int RunEvalTrajectory(const TrajectoryArgs& a) {
   if (a.json != "-") fmt::print("{}", FormatTrajectoryEvalTable(report));
   if (!a.json.empty()) WriteTextOutput(a.json, TrajectoryEvalReportToJson(report).dump(2) + "\n");
   if (!a.plot.empty()) {
-    const PosePairs pairs = o.associate_by_index ? AssociateByIndex(est, gt)
-                                                 : AssociateByTimestamp(est, gt, o.max_time_difference_ns,
-                                                                        o.est_time_offset_ns);
+    const PosePairs pairs = o.associate_by_index
+                                ? AssociateByIndex(est, gt)
+                                : AssociateByTimestamp(est, gt, o.max_time_difference_ns, o.est_time_offset_ns);
     TrajectoryPlotOptions po;
     po.title = fmt::format("{} vs {} ({} alignment)", a.est, a.gt, a.align);
     WriteTrajectoryPlot(a.plot, pairs, report.ate.alignment, po);
@@ -359,74 +389,75 @@ int RunEvalSimulatedDamage(const SimDamageArgs& a) {
 }  // namespace
 
 Command EvalCommand() {
-  return {"eval", "Evaluate results against ground truth: disparity maps, damage labels, trajectories",
-          [](CLI::App& app, const StageRegistry&) -> std::function<int()> {
-            app.option_defaults()->always_capture_default();
-            app.require_subcommand(1);
-            auto d = std::make_shared<DisparityArgs>();
-            CLI::App* disp = app.add_subcommand("disparity", "KITTI 16-bit disparity PNGs vs truth: bad-1/2/3, D1, EPE");
-            disp->add_option("estimate", d->est, "estimated disparity PNG, or a folder of them")->required();
-            disp->add_option("truth", d->gt, "truth disparity PNG (0 = unknown), or a folder (paired by file name)")
-                ->required();
-            disp->add_option("--noc", d->noc,
-                             "non-occluded region: KITTI disp_noc PNG/folder (non-zero pixels are evaluated)");
-            disp->add_option("--mask", d->mask, "evaluation mask PNG/folder (non-zero = evaluate), e.g. road pixels");
-            disp->add_option("--json", d->json, "write the metrics as JSON ('-' = stdout)");
+  return {
+      "eval", "Evaluate results against ground truth: disparity maps, damage labels, trajectories",
+      [](CLI::App& app, const StageRegistry&) -> std::function<int()> {
+        app.option_defaults()->always_capture_default();
+        app.require_subcommand(1);
+        auto d = std::make_shared<DisparityArgs>();
+        CLI::App* disp = app.add_subcommand("disparity", "KITTI 16-bit disparity PNGs vs truth: bad-1/2/3, D1, EPE");
+        disp->add_option("estimate", d->est, "estimated disparity PNG, or a folder of them")->required();
+        disp->add_option("truth", d->gt, "truth disparity PNG (0 = unknown), or a folder (paired by file name)")
+            ->required();
+        disp->add_option("--noc", d->noc,
+                         "non-occluded region: KITTI disp_noc PNG/folder (non-zero pixels are evaluated)");
+        disp->add_option("--mask", d->mask, "evaluation mask PNG/folder (non-zero = evaluate), e.g. road pixels");
+        disp->add_option("--json", d->json, "write the metrics as JSON ('-' = stdout)");
 
-            auto g = std::make_shared<DamageArgs>();
-            CLI::App* dmg = app.add_subcommand("damage", "damage label PNGs vs truth masks: pixel and instance metrics");
-            dmg->add_option("labels", g->labels, "predicted 16-bit instance label PNG, or a folder of them")->required();
-            dmg->add_option("truth", g->truth_masks, "truth mask/label PNG, or a folder (paired by file name)")
-                ->required();
-            dmg->add_option("--detections", g->detections,
-                            "folder of detections JSON (<frame>.json) with the predicted measurements");
-            dmg->add_option("--truth", g->truth, "truth damages.geojson (properties id, area_m2, max_depth_m, volume_m3)");
-            dmg->add_flag("--components", g->components,
-                          "truth is a binary mask: its 8-connected components are the truth instances");
-            dmg->add_option("--min-iou", g->min_iou, "IoU a predicted and a truth instance need to match")
-                ->check(CLI::Range(0.01, 1.0));
-            dmg->add_option("--json", g->json, "write the metrics as JSON ('-' = stdout)");
+        auto g = std::make_shared<DamageArgs>();
+        CLI::App* dmg = app.add_subcommand("damage", "damage label PNGs vs truth masks: pixel and instance metrics");
+        dmg->add_option("labels", g->labels, "predicted 16-bit instance label PNG, or a folder of them")->required();
+        dmg->add_option("truth", g->truth_masks, "truth mask/label PNG, or a folder (paired by file name)")->required();
+        dmg->add_option("--detections", g->detections,
+                        "folder of detections JSON (<frame>.json) with the predicted measurements");
+        dmg->add_option("--truth", g->truth, "truth damages.geojson (properties id, area_m2, max_depth_m, volume_m3)");
+        dmg->add_flag("--components", g->components,
+                      "truth is a binary mask: its 8-connected components are the truth instances");
+        dmg->add_option("--min-iou", g->min_iou, "IoU a predicted and a truth instance need to match")
+            ->check(CLI::Range(0.01, 1.0));
+        dmg->add_option("--json", g->json, "write the metrics as JSON ('-' = stdout)");
 
-            auto t = std::make_shared<TrajectoryArgs>();
-            CLI::App* traj = app.add_subcommand("trajectory", "estimated vs truth trajectory: ATE, RDE, RPE, KITTI errors");
-            traj->add_option("estimate", t->est, "estimated trajectory (TUM, KITTI or EuRoC)")->required();
-            traj->add_option("truth", t->gt, "truth trajectory")->required();
-            traj->add_option("--align", t->align, "fit before ATE")->check(CLI::IsMember({"se3", "sim3", "none"}));
-            traj->add_flag("--by-index", t->by_index, "pair pose i with pose i instead of by timestamp");
-            traj->add_option("--max-time-diff", t->max_time_diff_s, "timestamp association tolerance, s")
-                ->check(CLI::NonNegativeNumber);
-            traj->add_option("--time-offset", t->time_offset_s, "added to the estimate's times before association, s");
-            traj->add_option("--rde-delta", t->rde_delta, "RDE pair spacing: N frames, Ns seconds or Nm metres");
-            traj->add_option("--rpe-delta", t->rpe_delta, "RPE pair spacing: N frames, Ns seconds or Nm metres");
-            const std::vector<std::string> formats = {"auto", "tum", "kitti", "euroc"};
-            traj->add_option("--format", t->format, "estimate format (auto: from the first data line)")
-                ->check(CLI::IsMember(formats));
-            traj->add_option("--gt-format", t->gt_format, "truth format")->check(CLI::IsMember(formats));
-            traj->add_option("--kitti-times", t->kitti_times, "times.txt for KITTI-format inputs (seconds per line)");
-            traj->add_option("--json", t->json, "write the report as JSON ('-' = stdout)");
-            traj->add_option("--plot", t->plot, "write a PNG: top view of both paths after alignment, ATE over time");
+        auto t = std::make_shared<TrajectoryArgs>();
+        CLI::App* traj = app.add_subcommand("trajectory", "estimated vs truth trajectory: ATE, RDE, RPE, KITTI errors");
+        traj->add_option("estimate", t->est, "estimated trajectory (TUM, KITTI or EuRoC)")->required();
+        traj->add_option("truth", t->gt, "truth trajectory")->required();
+        traj->add_option("--align", t->align, "fit before ATE")->check(CLI::IsMember({"se3", "sim3", "none"}));
+        traj->add_flag("--by-index", t->by_index, "pair pose i with pose i instead of by timestamp");
+        traj->add_option("--max-time-diff", t->max_time_diff_s, "timestamp association tolerance, s")
+            ->check(CLI::NonNegativeNumber);
+        traj->add_option("--time-offset", t->time_offset_s, "added to the estimate's times before association, s");
+        traj->add_option("--rde-delta", t->rde_delta, "RDE pair spacing: N frames, Ns seconds or Nm metres");
+        traj->add_option("--rpe-delta", t->rpe_delta, "RPE pair spacing: N frames, Ns seconds or Nm metres");
+        const std::vector<std::string> formats = {"auto", "tum", "kitti", "euroc"};
+        traj->add_option("--format", t->format, "estimate format (auto: from the first data line)")
+            ->check(CLI::IsMember(formats));
+        traj->add_option("--gt-format", t->gt_format, "truth format")->check(CLI::IsMember(formats));
+        traj->add_option("--kitti-times", t->kitti_times, "times.txt for KITTI-format inputs (seconds per line)");
+        traj->add_option("--json", t->json, "write the report as JSON ('-' = stdout)");
+        traj->add_option("--plot", t->plot, "write a PNG: top view of both paths after alignment, ATE over time");
 
-            auto sd = std::make_shared<SimDamageArgs>();
-            CLI::App* sim = app.add_subcommand(
-                "damage-sim", "a simulated survey end to end: disparity + damage vs the simulator's truth potholes");
-            sim->add_option("survey", sd->survey_dir, "folder written by `roadsurvey simulate`")->required();
-            sim->add_flag("--truth-disparity", sd->truth_disparity,
-                          "use truth/disparity instead of computing it (isolates the damage stage)");
-            sim->add_option("--step", sd->step, "evaluate every n-th frame")->check(CLI::PositiveNumber);
-            sim->add_option("--max-frames", sd->max_frames, "at most this many frames (0 = all)")
-                ->check(CLI::NonNegativeNumber);
-            sim->add_option("--max-range", sd->max_range_m, "only potholes nearer than this camera depth, m (0 = the damage stage's analysed range)")
-                ->check(CLI::NonNegativeNumber);
-            sim->add_option("--min-diameter", sd->min_diameter_m, "truth potholes at least this wide are scored, m")
-                ->check(CLI::PositiveNumber);
+        auto sd = std::make_shared<SimDamageArgs>();
+        CLI::App* sim = app.add_subcommand(
+            "damage-sim", "a simulated survey end to end: disparity + damage vs the simulator's truth potholes");
+        sim->add_option("survey", sd->survey_dir, "folder written by `roadsurvey simulate`")->required();
+        sim->add_flag("--truth-disparity", sd->truth_disparity,
+                      "use truth/disparity instead of computing it (isolates the damage stage)");
+        sim->add_option("--step", sd->step, "evaluate every n-th frame")->check(CLI::PositiveNumber);
+        sim->add_option("--max-frames", sd->max_frames, "at most this many frames (0 = all)")
+            ->check(CLI::NonNegativeNumber);
+        sim->add_option("--max-range", sd->max_range_m,
+                        "only potholes nearer than this camera depth, m (0 = the damage stage's analysed range)")
+            ->check(CLI::NonNegativeNumber);
+        sim->add_option("--min-diameter", sd->min_diameter_m, "truth potholes at least this wide are scored, m")
+            ->check(CLI::PositiveNumber);
 
-            return [=] {
-              if (sim->parsed()) return RunEvalSimulatedDamage(*sd);
-              if (disp->parsed()) return RunEvalDisparity(*d);
-              if (dmg->parsed()) return RunEvalDamage(*g);
-              return RunEvalTrajectory(*t);
-            };
-          }};
+        return [=] {
+          if (sim->parsed()) return RunEvalSimulatedDamage(*sd);
+          if (disp->parsed()) return RunEvalDisparity(*d);
+          if (dmg->parsed()) return RunEvalDamage(*g);
+          return RunEvalTrajectory(*t);
+        };
+      }};
 }
 
 }  // namespace rs

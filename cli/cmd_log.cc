@@ -65,8 +65,8 @@ Command LogCommand() {
             auto a = std::make_shared<Args>();
             app.add_option("log", a->path, "flight log file (or KITTI OXTS folder)")->required();
             app.add_option("--format", a->format, "log format (auto: detected from the content)")
-                ->check(CLI::IsMember({"auto", "csv", "airdata-csv", "gpx", "px4-ulog", "ardupilot-dataflash",
-                                       "dji-srt", "kitti-oxts"}));
+                ->check(CLI::IsMember(
+                    {"auto", "csv", "airdata-csv", "gpx", "px4-ulog", "ardupilot-dataflash", "dji-srt", "kitti-oxts"}));
             app.add_option("--csv", a->csv, "write the normalized track as roadsurvey track CSV ('-' = stdout)");
             return [a] {
               const std::string format = a->format == "auto" ? DetectFlightLogFormat(a->path) : a->format;
@@ -103,7 +103,8 @@ Command LogCommand() {
               for (const auto& f : track.fixes) {
                 fix_types[f.fix_type]++;
                 alt_refs[f.alt_ref]++;
-                if (std::isfinite(f.ground_speed_m_s)) max_logged_speed = std::max(max_logged_speed, f.ground_speed_m_s);
+                if (std::isfinite(f.ground_speed_m_s))
+                  max_logged_speed = std::max(max_logged_speed, f.ground_speed_m_s);
                 if (std::isfinite(f.alt_m)) alt_min = std::min(alt_min, f.alt_m), alt_max = std::max(alt_max, f.alt_m);
                 if (!std::isfinite(f.lat_deg) || !std::isfinite(f.lon_deg)) continue;
                 ++positioned;

@@ -52,8 +52,11 @@ Command SegmentCommand() {
                 ->required();
             app.add_option("-o,--output", a->output, "instance labels, 16-bit PNG (0 = none, 1..n = instance id)")
                 ->required();
-            app.add_option("--image", a->image, "left image (same size): enables crack detection; the overlay is drawn on it");
-            app.add_option("--overlay", a->overlay, "picture with every instance outlined and labelled (on --image, else on the relief in grey)");
+            app.add_option("--image", a->image,
+                           "left image (same size): enables crack detection; the overlay is drawn on it");
+            app.add_option(
+                "--overlay", a->overlay,
+                "picture with every instance outlined and labelled (on --image, else on the relief in grey)");
             app.add_option("--json", a->json, "detections JSON (roadsurvey.damage_detections/1)");
             app.add_flag("--no-cracks", a->no_cracks, "skip crack detection in --image");
             app.add_option("--min-area-px", a->min_area_px, "smallest damage kept, px")->check(CLI::PositiveNumber);
@@ -96,11 +99,13 @@ Command SegmentCommand() {
               fmt::print("road level      {:.4g} (sigma {:.4g}){}\n", seg.scale.road_level, seg.scale.sigma,
                          scale ? ", given" : ", estimated");
               fmt::print("threshold       {:.2f} sigma below the road\n", seg.threshold_sigma);
-              fmt::print("instances       {} depressions, {} cracks (metric values unknown: a transformed "
-                         "disparity carries no depth in metres)\n",
-                         potholes_other, cracks);
+              fmt::print(
+                  "instances       {} depressions, {} cracks (metric values unknown: a transformed "
+                  "disparity carries no depth in metres)\n",
+                  potholes_other, cracks);
               if (!seg.instances.empty()) {
-                fmt::print("\n{:>4} {:<8} {:>9} {:>11} {:>22}\n", "id", "type", "pixels", "confidence", "bbox (u, v, w, h)");
+                fmt::print("\n{:>4} {:<8} {:>9} {:>11} {:>22}\n", "id", "type", "pixels", "confidence",
+                           "bbox (u, v, w, h)");
                 for (const auto& d : seg.instances) {
                   const cv::Rect box = d.outline_px.empty() ? cv::Rect() : cv::boundingRect(d.outline_px);
                   fmt::print("{:>4} {:<8} {:>9} {:>11.2f} {:>22}\n", d.id, DamageTypeName(d.type), d.pixel_count,

@@ -21,12 +21,11 @@ Command StatusCommand() {
                                  "no manifest: this folder has not been used as a survey output");
               const auto m = ReadJsonFile(manifest_path);
               const auto& run = m.at("run");
-              fmt::print("survey {} ({})\nlast run: {} -> {}, {}; frames {}\n\n",
-                         m["survey"].value("name", "?"), m["survey"].value("file", "?"),
-                         run.value("started_utc", "?"), run.value("finished_utc", "-"), run.value("state", "?"),
-                         run.value("frames", "all"));
-              fmt::print("{:<12} {:<13} {:<17} {:>9} {:>9} {:>7} {:>8} {:>8}\n", "stage", "status", "key",
-                         "wall [s]", "computed", "reused", "skipped", "warnings");
+              fmt::print("survey {} ({})\nlast run: {} -> {}, {}; frames {}\n\n", m["survey"].value("name", "?"),
+                         m["survey"].value("file", "?"), run.value("started_utc", "?"), run.value("finished_utc", "-"),
+                         run.value("state", "?"), run.value("frames", "all"));
+              fmt::print("{:<12} {:<13} {:<17} {:>9} {:>9} {:>7} {:>8} {:>8}\n", "stage", "status", "key", "wall [s]",
+                         "computed", "reused", "skipped", "warnings");
               for (const auto& [name, s] : m.at("stages").items()) {
                 const auto frames = s.value("frames", nlohmann::json::object());
                 fmt::print("{:<12} {:<13} {:<17} {:>9.2f} {:>9} {:>7} {:>8} {:>8}\n", name, s.value("status", "?"),

@@ -45,8 +45,7 @@ Command ValidateCommand() {
   return {"validate", "Check survey files and all their inputs without processing; list every problem",
           [](CLI::App& app, const StageRegistry& registry) -> std::function<int()> {
             auto survey_paths = std::make_shared<std::vector<std::string>>();
-            app.add_option("survey", *survey_paths, "survey file(s) (survey.json), each checked in turn")
-                ->required();
+            app.add_option("survey", *survey_paths, "survey file(s) (survey.json), each checked in turn")->required();
             auto flags = std::make_shared<OptionFlags>();
             flags->AddStages(app, registry);
             return [survey_paths, flags, &registry] {

@@ -14,9 +14,9 @@
 namespace rs {
 
 const std::vector<Command>& Commands() {
-  static const std::vector<Command> commands = {RunCommand(), ValidateCommand(), StatusCommand(), StagesCommand(),
-                                                SchemaCommand(), SimulateCommand(), StereoCommand(),
-                                                SegmentCommand(), EvalCommand(), BenchCommand(), LogCommand()};
+  static const std::vector<Command> commands = {RunCommand(),    ValidateCommand(), StatusCommand(), StagesCommand(),
+                                                SchemaCommand(), SimulateCommand(), StereoCommand(), SegmentCommand(),
+                                                EvalCommand(),   BenchCommand(),    LogCommand()};
   return commands;
 }
 

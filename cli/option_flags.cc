@@ -29,15 +29,14 @@ nlohmann::json ParseTyped(const std::string& text, const OptionSpec& spec, const
       }
       case OptionType::kString: return text;
     }
-  } catch (const std::exception&) {
-  }
+  } catch (const std::exception&) {}
   throw OptionError(fmt::format("--{} {}: expected {}", flag, text, spec.AllowedText()));
 }
 
 }  // namespace
 
-void OptionFlags::Add(CLI::App& app, const std::string& prefix, const OptionTableBase& table,
-                      const std::string& group, const std::vector<std::string>& skip) {
+void OptionFlags::Add(CLI::App& app, const std::string& prefix, const OptionTableBase& table, const std::string& group,
+                      const std::vector<std::string>& skip) {
   for (const auto& spec : table.specs()) {
     if (std::find(skip.begin(), skip.end(), spec.name) != skip.end()) continue;
     const std::string flag = prefix.empty() ? spec.name : prefix + "." + spec.name;

@@ -39,8 +39,8 @@ std::vector<FilePair> PairFiles(const fs::path& est, const fs::path& truth, cons
   if (!extra.empty()) Existing(extra);
   const bool dirs = fs::is_directory(truth);
   if (fs::is_directory(est) != dirs || (!extra.empty() && fs::is_directory(extra) != dirs))
-    throw OptionError(fmt::format("give files or folders on both sides, not a mix ({} vs {})", est.string(),
-                                  truth.string()));
+    throw OptionError(
+        fmt::format("give files or folders on both sides, not a mix ({} vs {})", est.string(), truth.string()));
   if (!dirs) return {{truth.filename().string(), est, truth, extra}};
   std::vector<FilePair> pairs;
   for (const auto& entry : fs::directory_iterator(truth)) {

@@ -23,8 +23,7 @@ double ParseDouble(const std::string& s, const InputLocation& where) {
   try {
     const double v = std::stod(s, &used);
     if (used == s.size()) return v;
-  } catch (const std::exception&) {
-  }
+  } catch (const std::exception&) {}
   throw InputError(where, fmt::format("'{}' is not a number", s));
 }
 
@@ -33,8 +32,7 @@ int64_t ParseInt(const std::string& s, const InputLocation& where) {
   try {
     const int64_t v = std::stoll(s, &used);
     if (used == s.size()) return v;
-  } catch (const std::exception&) {
-  }
+  } catch (const std::exception&) {}
   throw InputError(where, fmt::format("'{}' is not an integer", s));
 }
 

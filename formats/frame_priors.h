@@ -30,7 +30,7 @@ struct FramePrior {
   PriorStatus status = PriorStatus::kNoLog;
   double lat_deg = kNaN, lon_deg = kNaN, alt_m = kNaN;
   AltitudeReference alt_ref = AltitudeReference::kUnknown;
-  double h_acc_m = kNaN;            ///< interpolated horizontal accuracy, where the log gives one
+  double h_acc_m = kNaN;  ///< interpolated horizontal accuracy, where the log gives one
   bool has_attitude = false;
   double qw = 1, qx = 0, qy = 0, qz = 0;  ///< body (FRD) -> NED
 };

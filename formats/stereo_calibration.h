@@ -9,10 +9,10 @@ namespace rs {
 
 /// Pinhole intrinsics with OpenCV (k1, k2, p1, p2, k3) radial-tangential distortion.
 struct CameraIntrinsics {
-  int width = 0, height = 0;       ///< image size, px
-  double fx = 0, fy = 0;           ///< focal lengths, px
-  double cx = 0, cy = 0;           ///< principal point, px
-  std::array<double, 5> dist{};    ///< k1, k2, p1, p2, k3
+  int width = 0, height = 0;     ///< image size, px
+  double fx = 0, fy = 0;         ///< focal lengths, px
+  double cx = 0, cy = 0;         ///< principal point, px
+  std::array<double, 5> dist{};  ///< k1, k2, p1, p2, k3
 };
 
 /// Left = reference camera. R_right_left, t_right_left map a point from the left
@@ -22,7 +22,7 @@ struct CameraIntrinsics {
 struct StereoCalibration {
   CameraIntrinsics left, right;
   std::array<double, 9> R_right_left{1, 0, 0, 0, 1, 0, 0, 0, 1};  ///< row-major
-  std::array<double, 3> t_right_left{0, 0, 0};                     ///< metres
+  std::array<double, 3> t_right_left{0, 0, 0};                    ///< metres
   bool rectified = false;  ///< true: images are already rectified (no remap needed)
   std::string source_path;
 

@@ -39,7 +39,7 @@ class FlightPath {
   const RoadGeometry& road_;
   SimulationOptions o_;
   Eigen::Isometry3d T_body_cam_ = Eigen::Isometry3d::Identity();
-  double amp_[6];        // lateral m, height m, yaw rad, pitch rad, roll rad, along-track m
+  double amp_[6];  // lateral m, height m, yaw rad, pitch rad, roll rad, along-track m
   double freq_[6][3], phase_[6][3];
   double s_first_ = 0, s_far_ = 0, t_out_ = 0;
 };

@@ -53,15 +53,14 @@ FrameWriter::FrameWriter(const SimulationOptions& o, const fs::path& out_dir, do
 }
 
 void FrameWriter::Write(const std::string& name, const RenderedView& left, const RenderedView& right) const {
-  tbb::parallel_invoke(
-      [&] { WriteImage(out_ / "left" / (name + ext_), left.gray, image_params_); },
-      [&] { WriteImage(out_ / "right" / (name + ext_), right.gray, image_params_); },
-      [&] {
-        if (rectified_)
-          WriteImage(out_ / "truth/disparity" / (name + ".png"), DisparityFromDepth(left.depth_m, fb_),
-                     disparity_params_);
-      },
-      [&] { WriteImage(out_ / "truth/masks" / (name + ".png"), left.label, mask_params_); });
+  tbb::parallel_invoke([&] { WriteImage(out_ / "left" / (name + ext_), left.gray, image_params_); },
+                       [&] { WriteImage(out_ / "right" / (name + ext_), right.gray, image_params_); },
+                       [&] {
+                         if (rectified_)
+                           WriteImage(out_ / "truth/disparity" / (name + ".png"), DisparityFromDepth(left.depth_m, fb_),
+                                      disparity_params_);
+                       },
+                       [&] { WriteImage(out_ / "truth/masks" / (name + ".png"), left.label, mask_params_); });
 }
 
 double RenderAndWriteFrames(const SimulationOptions& o, const FlightPath& path, const StereoRenderer& renderer,

@@ -290,7 +290,7 @@ RoadScene::Footprint RoadScene::FootprintOf(double cos_i, double su, double lu, 
   Footprint fp;
   fp.major_m = lc * det * l2 * q;  // lc / cos_i
   fp.inv_major = cos_i * inv_lc;
-  fp.inv_minor = cc * l2 * lc * q;  // cos_i lc / det
+  fp.inv_minor = cc * l2 * lc * q;              // cos_i lc / det
   fp.anisotropic = l2 > kAnisoTolerance * det;  // major / minor = l2 / det
   if (fp.anisotropic) {
     fp.axis_s = (v_long ? sv : su) * inv_lc;

@@ -93,10 +93,10 @@ struct Obstacle {
 /// Result of a ray cast.
 struct RayHit {
   bool hit = false;
-  double t = 0;                  ///< ray parameter (ray direction unit length: metres)
+  double t = 0;                                       ///< ray parameter (ray direction unit length: metres)
   Eigen::Vector3d p_world = Eigen::Vector3d::Zero();  ///< hit point
-  float radiance = 0;            ///< shaded brightness in [0, ~1.5] before camera effects
-  uint16_t label = 0;            ///< damage id or 0
+  float radiance = 0;                                 ///< shaded brightness in [0, ~1.5] before camera effects
+  uint16_t label = 0;                                 ///< damage id or 0
   /// Road hits: the tangent plane of the intact (undamaged) surface at the hit,
   /// z = intact_z + intact_grad . (xy - p_world.xy). A neighbouring pixel's ray
   /// meets the road within micrometres of this plane (StartOnPlane).
@@ -208,8 +208,8 @@ class RoadScene {
   /// the pixel footprint spanned by dp_du and dp_dv (the soft penumbra a pixel
   /// records: width = distance to the occluding edge x tan(0.53 deg)).
   double SunVisibility(const Eigen::Vector3d& p, const Eigen::Vector3d& dp_du, const Eigen::Vector3d& dp_dv) const;
-  bool ObstacleHit(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double t_max, double* t,
-                   Eigen::Vector3d* n, const Obstacle** which) const;
+  bool ObstacleHit(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double t_max, double* t, Eigen::Vector3d* n,
+                   const Obstacle** which) const;
 
   void PlaceDamage(const SimulationOptions& o, double s_min, double s_max);
   void PlaceObstacles(const SimulationOptions& o, double s_min, double s_max);

@@ -269,9 +269,8 @@ TEST(RoadScene, TextureFilterMatchesBoxPixel) {
   };
   // Rows whose footprint is <= 6 mm across resolve the 9 mm stones: measured gradient 0.98-1.18, correlation
   // 0.94-0.99. At 10 m (10 mm across) the isotropic fade keeps little of them: nadir 0.26 / 0.75, car 0.37 / 0.80.
-  const Case cases[] = {{1.5, 15, 3, 0.8, 0.9}, {1.5, 15, 6, 0.8, 0.9},  {1.5, 15, 10, 0.3, 0.7},
-                        {4, 90, 0, 0.8, 0.9},   {4, 90, 4, 0.8, 0.9},    {6, 90, 0, 0.8, 0.9},
-                        {10, 90, 0, 0.2, 0.65}};
+  const Case cases[] = {{1.5, 15, 3, 0.8, 0.9}, {1.5, 15, 6, 0.8, 0.9}, {1.5, 15, 10, 0.3, 0.7}, {4, 90, 0, 0.8, 0.9},
+                        {4, 90, 4, 0.8, 0.9},   {6, 90, 0, 0.8, 0.9},   {10, 90, 0, 0.2, 0.65}};
   for (const Case& cs : cases) {
     const PinholeView c = ViewAlongRoad(scene, 5, 1.8, cs.height_m, cs.pitch_deg);
     const double v = c.f * std::tan(std::atan2(cs.height_m, cs.ahead_m) - cs.pitch_deg * M_PI / 180);
@@ -283,9 +282,10 @@ TEST(RoadScene, TextureFilterMatchesBoxPixel) {
       point.push_back(scene.Cast(c.o, c.Ray(u, v, 1.0 / 16, &px), px).radiance);
     }
     const RowAgreement q = CompareRows(rendered, box), unfiltered = CompareRows(point, box);
-    std::printf("camera %.1f m up, %.0f deg down, row %.0f m ahead: gradient %.3f, correlation %.3f "
-                "(point sampled: gradient %.3f)\n",
-                cs.height_m, cs.pitch_deg, cs.ahead_m, q.gradient, q.correlation, unfiltered.gradient);
+    std::printf(
+        "camera %.1f m up, %.0f deg down, row %.0f m ahead: gradient %.3f, correlation %.3f "
+        "(point sampled: gradient %.3f)\n",
+        cs.height_m, cs.pitch_deg, cs.ahead_m, q.gradient, q.correlation, unfiltered.gradient);
     EXPECT_GE(q.gradient, cs.min_gradient) << cs.ahead_m << " m ahead, " << cs.height_m << " m up";
     EXPECT_GE(q.correlation, cs.min_correlation) << cs.ahead_m << " m ahead, " << cs.height_m << " m up";
     // Aliasing: more pixel-to-pixel change than the box integral has. Unfiltered
@@ -364,9 +364,10 @@ TEST(RoadScene, PaintEdgesMatchBoxPixel) {
       err = std::max(err, std::abs(rendered[k] - box[k]));
       err_point = std::max(err_point, std::abs(point[k] - box[k]));
     }
-    std::printf("line shifted %.3f m: painted width rendered %.3f, box %.3f, point sampled %.3f px (true 7.5); "
-                "largest share error %.3f (point sampled %.3f)\n",
-                shift, width_r, width_box, width_point, err, err_point);
+    std::printf(
+        "line shifted %.3f m: painted width rendered %.3f, box %.3f, point sampled %.3f px (true 7.5); "
+        "largest share error %.3f (point sampled %.3f)\n",
+        shift, width_r, width_box, width_point, err, err_point);
     EXPECT_NEAR(width_r, 7.5, 0.1) << shift;
     EXPECT_NEAR(width_box, 7.5, 0.1) << shift;
     worst = std::max(worst, err), worst_point = std::max(worst_point, err_point);
@@ -424,9 +425,10 @@ TEST(RoadScene, ShadowPenumbraFollowsSunDisc) {
   const double D = (z_top - z_q) / sun.z();
   const double edge = (Eigen::Vector3d(q.x(), q.y(), z_q) + D * sun - car.centre).dot(axis);
   const double expected = 0.404 * D * std::tan(0.53 * M_PI / 180);
-  std::printf("roof edge %.2f m from the road: penumbra 25-75 %% %.1f mm (uniform disc %.1f mm), its middle's sun "
-              "ray %.1f mm from the roof edge\n",
-              D, 1e3 * (s75 - s25), 1e3 * expected, 1e3 * (edge - car.half_size[k]));
+  std::printf(
+      "roof edge %.2f m from the road: penumbra 25-75 %% %.1f mm (uniform disc %.1f mm), its middle's sun "
+      "ray %.1f mm from the roof edge\n",
+      D, 1e3 * (s75 - s25), 1e3 * expected, 1e3 * (edge - car.half_size[k]));
   EXPECT_NEAR(s75 - s25, expected, 0.25 * expected);
   EXPECT_NEAR(edge, car.half_size[k], 0.003);
 }

@@ -78,9 +78,9 @@ class NoiseTable {
 struct Octave {
   Octave(double scale, double cos_a, double sin_a, double off_x, double off_y)
       : scale_m(scale), c(cos_a), s(sin_a), ox(off_x), oy(off_y), cu(cos_a / scale), su(sin_a / scale) {}
-  double scale_m = 0.01;  ///< texel size on the ground
-  double c = 1, s = 0;    ///< rotation cos/sin
-  double ox = 0, oy = 0;  ///< offset, texels
+  double scale_m = 0.01;    ///< texel size on the ground
+  double c = 1, s = 0;      ///< rotation cos/sin
+  double ox = 0, oy = 0;    ///< offset, texels
   double cu = 100, su = 0;  ///< c / scale_m, s / scale_m: the renderer samples octaves per pixel, so no division there
   float At(const NoiseTable& t, double u, double v) const {
     const double x = cu * u - su * v + ox;

@@ -14,12 +14,12 @@ namespace rs {
 /// What Simulate() produced.
 struct SimulationSummary {
   std::filesystem::path out_dir;
-  int frames = 0;                  ///< stereo pairs written
-  int damages = 0;                 ///< damages in truth/damages.geojson
-  int obstacles = 0;               ///< obstacles in the scene
-  double render_s = 0;             ///< time spent rendering (both cameras + truth)
-  double total_s = 0;              ///< wall time of the whole simulation
-  double pairs_per_s = 0;          ///< rendering throughput, stereo pairs per second
+  int frames = 0;          ///< stereo pairs written
+  int damages = 0;         ///< damages in truth/damages.geojson
+  int obstacles = 0;       ///< obstacles in the scene
+  double render_s = 0;     ///< time spent rendering (both cameras + truth)
+  double total_s = 0;      ///< wall time of the whole simulation
+  double pairs_per_s = 0;  ///< rendering throughput, stereo pairs per second
   /// "48 stereo pairs, 23 damages, 0 obstacles in 12.3 s (rendering 6.1 pairs/s)".
   std::string BriefReport() const;
 };

@@ -95,9 +95,8 @@ TEST_F(SimulateTest, Nominal) {
   const fs::path& d = *dir_;
   EXPECT_EQ(summary_->frames, 6);
   for (const char* f : {"timestamps.csv", "calibration.yaml", "flight_log.csv", "flight_log.gpx", "flight_log.ulg",
-                        "flight_log.bin", "survey.json",
-                        "truth/trajectory.tum", "truth/damages.geojson", "truth/road_surface.ply",
-                        "truth/georeference.json", "truth/scene.json"}) {
+                        "flight_log.bin", "survey.json", "truth/trajectory.tum", "truth/damages.geojson",
+                        "truth/road_surface.ply", "truth/georeference.json", "truth/scene.json"}) {
     EXPECT_TRUE(fs::exists(d / f)) << f;
   }
   for (int k = 0; k < 6; ++k) {
@@ -120,8 +119,8 @@ TEST_F(SimulateTest, Nominal) {
 
   const FlightTrack track = ReadTrackCsv(d / "flight_log.csv");
   EXPECT_EQ(track.camera_events.size(), 6u);
-  EXPECT_GE(track.fixes.size(), 25u);     // 10 Hz over 0.5 s + 2 s margin
-  EXPECT_GE(track.attitude.size(), 120u); // 50 Hz
+  EXPECT_GE(track.fixes.size(), 25u);      // 10 Hz over 0.5 s + 2 s margin
+  EXPECT_GE(track.attitude.size(), 120u);  // 50 Hz
 
   const auto fc = geojson::ReadFeatureCollection(d / "truth/damages.geojson");
   EXPECT_EQ(static_cast<int>(fc.features.size()), summary_->damages);
@@ -161,8 +160,8 @@ TEST_F(SimulateTest, DisparityIsDepthOfSurface) {
   const double f = calib.left.fx, B = calib.BaselineM();
   int checked = 0, off = 0;
   for (int k = 0; k < 6; k += 5) {
-    const cv::Mat disp = cv::imread((*dir_ / ("truth/disparity/00000" + std::to_string(k) + ".png")).string(),
-                                    cv::IMREAD_UNCHANGED);
+    const cv::Mat disp =
+        cv::imread((*dir_ / ("truth/disparity/00000" + std::to_string(k) + ".png")).string(), cv::IMREAD_UNCHANGED);
     ASSERT_EQ(disp.type(), CV_16UC1);
     for (int v = 0; v < disp.rows; v += 3) {
       for (int u = 0; u < disp.cols; u += 3) {
@@ -279,10 +278,10 @@ TEST_F(SimulateTest, AutopilotLogsMatchCsv) {
   EXPECT_EQ(DetectFlightLogFormat(*dir_ / "flight_log.bin"), "ardupilot-dataflash");
   struct Quant {
     const FlightTrack* t;
-    int64_t dt_ns;      // time: 1 us (ULog), 1 ms (DataFlash GPS ms; boot clock fitted to it)
-    double alt_m;       // int32 mm / int32 cm (fixes)
-    double cam_alt_m;   // float / int32 cm (camera events)
-    double att_deg;     // float quaternion / centidegree Euler angles
+    int64_t dt_ns;     // time: 1 us (ULog), 1 ms (DataFlash GPS ms; boot clock fitted to it)
+    double alt_m;      // int32 mm / int32 cm (fixes)
+    double cam_alt_m;  // float / int32 cm (camera events)
+    double att_deg;    // float quaternion / centidegree Euler angles
   };
   for (const Quant& q : {Quant{&ulg, 1000, 0.5e-3, 1e-4, 1e-4}, Quant{&bin, 1'000'000, 0.5e-2, 0.5e-2, 0.0087}}) {
     const FlightTrack& t = *q.t;
@@ -337,7 +336,7 @@ TEST_F(SimulateTest, MasksMatchScene) {
       if (id == 0 || D.at<uint16_t>(v, u) == 0) continue;
       const double Z = calib.left.fx * calib.BaselineM() / (D.at<uint16_t>(v, u) / 256.0);
       const Eigen::Vector3d pw = poses[2].T_world_cam * Eigen::Vector3d((u - calib.left.cx) / calib.left.fx * Z,
-                                                                          (v - calib.left.cy) / calib.left.fy * Z, Z);
+                                                                        (v - calib.left.cy) / calib.left.fy * Z, Z);
       ++labelled;
       if (scene.LabelAt(pw.x(), pw.y()) == id) ++agree;
     }

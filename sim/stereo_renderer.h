@@ -42,7 +42,7 @@ class StereoRenderer {
     // Per pixel (dx/du, dy/du, dx/dv, dy/dv) / |(x, y, 1)|, (x, y) the normalised image coordinates: the
     // ray's change per pixel step (camera frame, along x and y), for the texture filter's footprint.
     std::vector<Eigen::Vector4f> ray_diff;
-    std::vector<float> vignette;        // brightness factor per pixel
+    std::vector<float> vignette;  // brightness factor per pixel
     double gain = 1;
     Eigen::Isometry3d T_left_cam = Eigen::Isometry3d::Identity();
   };

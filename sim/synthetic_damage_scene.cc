@@ -113,8 +113,10 @@ cv::Mat SyntheticRoadScene::RenderImage() const {
       int bowl = 0;
       const double z = SceneDepth(*this, f, r, bowl);
       double g = 118.0 + tex.at<float>(v, u);
-      if (!std::isfinite(z)) g = 200.0;
-      else if (bowl >= 0) g -= 30.0;
+      if (!std::isfinite(z))
+        g = 200.0;
+      else if (bowl >= 0)
+        g -= 30.0;
       else {
         // Lane marking: a 0.12 m white stripe along the road, 1.1 m left of the first pothole.
         const double a = f.e1.dot(z * r - f.c0);
@@ -152,8 +154,8 @@ SyntheticRoadScene BenchmarkRoadScene(int width, int height) {
   SyntheticRoadScene s;
   s.width = width, s.height = height;
   s.geometry = {width * 0.78, width / 2.0, height / 2.0, 0.20};
-  s.more_potholes = {{-0.75, -0.3, 0.12, 0.035}, {0.1, -0.7, 0.2, 0.03}, {-0.6, 0.55, 0.15, 0.05},
-                     {0.7, 0.75, 0.4, 0.025}};
+  s.more_potholes = {
+      {-0.75, -0.3, 0.12, 0.035}, {0.1, -0.7, 0.2, 0.03}, {-0.6, 0.55, 0.15, 0.05}, {0.7, 0.75, 0.4, 0.025}};
   s.box_height_m = 0.4;
   s.sigma_d_px = 0.15;
   s.invalid_fraction = 0.02;

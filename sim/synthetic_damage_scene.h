@@ -28,7 +28,7 @@ struct SyntheticRoadScene {
   double height_m = 1.5, pitch_deg = 45.0;
   double pothole_depth_m = 0.06, pothole_radius_m = 0.25, pothole_z_m = 2.2;
   std::vector<SyntheticPothole> more_potholes;
-  double box_height_m = 0;      ///< 0 = no obstacle
+  double box_height_m = 0;  ///< 0 = no obstacle
   double sigma_d_px = 0.05;
   double invalid_fraction = 0;  ///< share of 8×8 blocks without disparity (matching failures)
   int cracks = 0;               ///< RenderImage: this many dark cracks, 2–4 px wide, 150–450 px long

@@ -24,7 +24,8 @@ void CloseChecked(std::ofstream& f, const std::filesystem::path& path) {
   if (!f) throw std::runtime_error("error writing " + path.string());
 }
 
-geojson::Position ToLonLat(const RoadScene& scene, const GeographicLib::LocalCartesian& enu, const Eigen::Vector2d& sl) {
+geojson::Position ToLonLat(const RoadScene& scene, const GeographicLib::LocalCartesian& enu,
+                           const Eigen::Vector2d& sl) {
   const Eigen::Vector2d xy = scene.road().ToWorld(sl.x(), sl.y());
   const double z = scene.road().IntactZ(sl.x(), sl.y());
   double lat, lon, h;

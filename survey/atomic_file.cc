@@ -72,8 +72,8 @@ void CommitDirectory(const fs::path& tmp_dir, const fs::path& final_dir) {
       fs::remove_all(tmp_dir, ec);
       return;
     }
-    throw std::runtime_error(fmt::format("cannot commit {} -> {}: {}", tmp_dir.string(), final_dir.string(),
-                                         ec.message()));
+    throw std::runtime_error(
+        fmt::format("cannot commit {} -> {}: {}", tmp_dir.string(), final_dir.string(), ec.message()));
   }
 }
 

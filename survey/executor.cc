@@ -53,8 +53,8 @@ bool IsComplete(const fs::path& dir, const Stage& stage, const FrameSelection& f
 }
 
 nlohmann::json RecordJson(const StageRunRecord& r) {
-  nlohmann::json j = {{"version", r.version}, {"key", r.key},         {"status", ToString(r.status)},
-                      {"cached", r.cached},   {"wall_s", r.wall_s},   {"options", r.options},
+  nlohmann::json j = {{"version", r.version},  {"key", r.key},       {"status", ToString(r.status)},
+                      {"cached", r.cached},    {"wall_s", r.wall_s}, {"options", r.options},
                       {"inputs", r.input_keys}};
   if (r.status == StageStatus::kComputed || r.status == StageStatus::kReused || r.status == StageStatus::kFailed)
     j.update(r.summary.ToJson());
@@ -189,9 +189,9 @@ RunReport RunSurvey(const StageRegistry& registry, const SurveyFile& survey, con
       if (!complete) unavailable.insert(info.name);
     } else if (!blocked_by.empty()) {
       rec.status = StageStatus::kBlocked;
-      rec.error = request.only ? fmt::format("input from stage '{}' is not in the cache; run without --only first",
-                                             blocked_by)
-                               : fmt::format("not run: stage '{}' failed", blocked_by);
+      rec.error = request.only
+                      ? fmt::format("input from stage '{}' is not in the cache; run without --only first", blocked_by)
+                      : fmt::format("not run: stage '{}' failed", blocked_by);
       rec.exit_code = request.only ? 2 : 1;
       unavailable.insert(info.name);
     } else if (complete && !forced.count(info.name)) {
@@ -220,10 +220,10 @@ RunReport RunSurvey(const StageRegistry& registry, const SurveyFile& survey, con
         stage->Run(ctx, rec.options);
         rec.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         rec.summary = ctx.summary();
-        nlohmann::json marker = {{"stage", info.name},     {"version", info.version},
-                                 {"key", rec.key},         {"options", rec.options},
+        nlohmann::json marker = {{"stage", info.name},       {"version", info.version},
+                                 {"key", rec.key},           {"options", rec.options},
                                  {"inputs", rec.input_keys}, {"frame_selection", request.frames.ToString()},
-                                 {"wall_s", rec.wall_s},   {"finished_utc", UtcNow()}};
+                                 {"wall_s", rec.wall_s},     {"finished_utc", UtcNow()}};
         marker.update(rec.summary.ToJson());
         WriteJsonAtomic(run_dir / kMarker, marker);
         if (swap) {

@@ -25,10 +25,10 @@ namespace rs {
 /// How to run (from the command line).
 struct RunRequest {
   nlohmann::json cli_overrides = nlohmann::json::object();  ///< stage -> {option: value}, over survey.json
-  std::optional<std::string> rerun_from;  ///< recompute this stage and its dependents even if cached
-  std::optional<std::string> only;        ///< run this stage alone; its inputs must be cached
-  FrameSelection frames;                  ///< --frames A:B
-  int threads = 0;                        ///< 0 = all cores
+  std::optional<std::string> rerun_from;                    ///< recompute this stage and its dependents even if cached
+  std::optional<std::string> only;                          ///< run this stage alone; its inputs must be cached
+  FrameSelection frames;                                    ///< --frames A:B
+  int threads = 0;                                          ///< 0 = all cores
   Progress::Mode progress = Progress::Mode::kAuto;
 };
 
@@ -64,9 +64,9 @@ nlohmann::json ResolveOptions(const StageRegistry& registry, const SurveyFile& s
                               const nlohmann::json& cli_overrides);
 
 /// Cache keys of every stage for these options (same for every selection of frames).
-std::map<std::string, std::string> ComputeKeys(const StageRegistry& registry, const JobGraph& graph,
-                                               const SurveyFile& survey, const nlohmann::json& options,
-                                               std::map<std::string, std::map<std::string, std::string>>* input_keys = nullptr);
+std::map<std::string, std::string> ComputeKeys(
+    const StageRegistry& registry, const JobGraph& graph, const SurveyFile& survey, const nlohmann::json& options,
+    std::map<std::string, std::map<std::string, std::string>>* input_keys = nullptr);
 
 /// Runs the survey. Throws ConfigError/OptionError before any work on bad
 /// options; stage failures are reported in the RunReport (and manifest), and

@@ -84,7 +84,9 @@ class ScaleStage : public TypedStage<ScaleStage, ScaleOptions> {
 
 class SumStage : public TypedStage<SumStage, NoOptions> {
  public:
-  static StageInfo Info() { return {"sum", 1, "sums", {"frames", "scaled"}, {"total"}, {{"sum.txt", "sum.txt"}}, true}; }
+  static StageInfo Info() {
+    return {"sum", 1, "sums", {"frames", "scaled"}, {"total"}, {{"sum.txt", "sum.txt"}}, true};
+  }
   void Run(StageContext& ctx, const NoOptions&) const {
     ++g_sum_runs;
     const auto frames = ReadFrameIndex(ctx.input_dir("frames") / "frames.csv");

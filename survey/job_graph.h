@@ -33,9 +33,9 @@ class JobGraph {
 
  private:
   std::vector<const Stage*> order_;
-  std::map<std::string, std::string> producer_;               // artifact -> stage
-  std::map<std::string, std::set<std::string>> consumers_;    // stage -> direct dependents
-  std::map<std::string, std::set<std::string>> producers_of_; // stage -> direct dependencies
+  std::map<std::string, std::string> producer_;                // artifact -> stage
+  std::map<std::string, std::set<std::string>> consumers_;     // stage -> direct dependents
+  std::map<std::string, std::set<std::string>> producers_of_;  // stage -> direct dependencies
 };
 
 }  // namespace rs

@@ -144,11 +144,28 @@ class OptionTable : public OptionTableBase {
   nlohmann::json GetAt(const Options& o, size_t i) const { return getters_[i](o); }
   void SetAt(Options& o, size_t i, const nlohmann::json& j) const { setters_[i](o, j); }
 
-  OptionTable& Min(double v) { specs_.back().minimum = v; return *this; }
-  OptionTable& Max(double v) { specs_.back().maximum = v; return *this; }
-  OptionTable& Above(double v) { specs_.back().minimum = v; specs_.back().minimum_exclusive = true; return *this; }
-  OptionTable& Below(double v) { specs_.back().maximum = v; specs_.back().maximum_exclusive = true; return *this; }
-  OptionTable& OneOf(std::vector<std::string> choices) { specs_.back().choices = std::move(choices); return *this; }
+  OptionTable& Min(double v) {
+    specs_.back().minimum = v;
+    return *this;
+  }
+  OptionTable& Max(double v) {
+    specs_.back().maximum = v;
+    return *this;
+  }
+  OptionTable& Above(double v) {
+    specs_.back().minimum = v;
+    specs_.back().minimum_exclusive = true;
+    return *this;
+  }
+  OptionTable& Below(double v) {
+    specs_.back().maximum = v;
+    specs_.back().maximum_exclusive = true;
+    return *this;
+  }
+  OptionTable& OneOf(std::vector<std::string> choices) {
+    specs_.back().choices = std::move(choices);
+    return *this;
+  }
 
   /// Typed options from a complete (merged) JSON object.
   Options FromJson(const nlohmann::json& j) const {

@@ -6,11 +6,11 @@ namespace rs {
 namespace {
 
 struct DemoOptions {
-  int max_disparity = 64;     // widest disparity
-  double p1 = 8.0;            // small-change penalty
-  double p2 = 32.0;           // large-change penalty
-  bool lr_check = true;       // left-right consistency
-  std::string method = "sgm"; // algorithm
+  int max_disparity = 64;      // widest disparity
+  double p1 = 8.0;             // small-change penalty
+  double p2 = 32.0;            // large-change penalty
+  bool lr_check = true;        // left-right consistency
+  std::string method = "sgm";  // algorithm
 
   void Check() const {
     CheckRule(p2 > p1, "demo", "p2", p2, "p2 > p1", "p1 = " + std::to_string(static_cast<int>(p1)));

@@ -28,8 +28,8 @@ std::string ExpandPathVariables(const std::string& value, const DataRoot& root, 
     if (value.compare(i, variable.size(), variable) != 0) {
       const size_t close = value.find('}', i);
       const std::string name = close == std::string::npos ? value.substr(i) : value.substr(i, close - i + 1);
-      throw InputError(where, "path \"" + value + "\": unknown variable " + name + " (only " + variable +
-                                  " is expanded)");
+      throw InputError(where,
+                       "path \"" + value + "\": unknown variable " + name + " (only " + variable + " is expanded)");
     }
     out += root.folder.string();
     used = true;

@@ -22,8 +22,10 @@ class PathVariables : public ::testing::Test {
     if (const char* env = std::getenv(kDataVariable)) saved_ = env;
   }
   void TearDown() override {
-    if (saved_) ::setenv(kDataVariable, saved_->c_str(), 1);
-    else ::unsetenv(kDataVariable);
+    if (saved_)
+      ::setenv(kDataVariable, saved_->c_str(), 1);
+    else
+      ::unsetenv(kDataVariable);
     fs::remove_all(root_);
   }
   DataRoot Root(const fs::path& folder) { return {folder, "test"}; }

@@ -15,11 +15,12 @@ nlohmann::json StageSummary::ToJson() const {
   return {{"counts", counts},
           {"timings_s", timings_s},
           {"warnings", warnings},
-          {"frames", {{"total", frames_total},
-                      {"computed", frames_computed},
-                      {"reused", frames_reused},
-                      {"skipped", frames_skipped},
-                      {"skip_reasons", skip_reasons}}}};
+          {"frames",
+           {{"total", frames_total},
+            {"computed", frames_computed},
+            {"reused", frames_reused},
+            {"skipped", frames_skipped},
+            {"skip_reasons", skip_reasons}}}};
 }
 
 StageSummary StageSummary::FromJson(const nlohmann::json& j) {
@@ -36,8 +37,9 @@ StageSummary StageSummary::FromJson(const nlohmann::json& j) {
   return s;
 }
 
-StageContext::StageContext(std::string stage_name, const SurveyFile& survey, fs::path out_dir, std::map<std::string, fs::path> input_dirs,
-                           FrameSelection frames, int threads, Progress& progress)
+StageContext::StageContext(std::string stage_name, const SurveyFile& survey, fs::path out_dir,
+                           std::map<std::string, fs::path> input_dirs, FrameSelection frames, int threads,
+                           Progress& progress)
     : stage_name_(std::move(stage_name)),
       survey_(survey),
       out_dir_(std::move(out_dir)),
@@ -114,8 +116,8 @@ void StageContext::ForEachFrame(const std::vector<FrameRecord>& frames, const Fr
         }
         // A skipped frame is cached too (skipped.json), so a resume does not retry it
         // and the skip stays visible in every later summary.
-        WriteJsonAtomic(tmp_dir / "skipped.json", {{"frame", frame.id.value}, {"reason", e.message()},
-                                                   {"where", e.where().ToString()}});
+        WriteJsonAtomic(tmp_dir / "skipped.json",
+                        {{"frame", frame.id.value}, {"reason", e.message()}, {"where", e.where().ToString()}});
         CommitDirectory(tmp_dir, final_dir);
         std::lock_guard lock(mutex_);
         ++summary_.frames_skipped;
@@ -134,7 +136,6 @@ void StageContext::ForEachFrame(const std::vector<FrameRecord>& frames, const Fr
   });
   progress_.Finish();
   if (first_error) std::rethrow_exception(first_error);
-
 }
 
 void StageContext::Warn(std::string message) {
@@ -153,8 +154,7 @@ void StageContext::Time(const std::string& step, double seconds) {
 }
 
 void StageRegistry::Add(std::unique_ptr<Stage> stage) {
-  if (Find(stage->info().name))
-    throw std::logic_error(fmt::format("stage '{}' registered twice", stage->info().name));
+  if (Find(stage->info().name)) throw std::logic_error(fmt::format("stage '{}' registered twice", stage->info().name));
   stages_.push_back(std::move(stage));
 }
 

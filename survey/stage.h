@@ -41,13 +41,13 @@ struct StageInfo {
   std::vector<std::string> inputs;   ///< artifacts consumed (kSurveyInputs or another stage's outputs)
   std::vector<std::string> outputs;  ///< artifacts produced; each lives in the stage's output folder
   std::vector<PublishedFile> published;
-  bool per_frame = false;            ///< caches per frame (resumable mid-stage)
+  bool per_frame = false;  ///< caches per frame (resumable mid-stage)
 };
 
 /// Counts, warnings and timings of one stage run; goes into manifest.json.
 struct StageSummary {
-  nlohmann::json counts = nlohmann::json::object();   ///< e.g. {"frames": 40, "inliers_mean": 812}
-  nlohmann::json timings_s = nlohmann::json::object();///< per step, seconds
+  nlohmann::json counts = nlohmann::json::object();     ///< e.g. {"frames": 40, "inliers_mean": 812}
+  nlohmann::json timings_s = nlohmann::json::object();  ///< per step, seconds
   std::vector<std::string> warnings;
   int64_t frames_total = 0;     ///< frames selected for this run
   int64_t frames_computed = 0;  ///< computed in this run

@@ -136,15 +136,15 @@ std::vector<std::string> ValidateAgainstSchema(const nlohmann::json& doc, const 
     if (const auto pos = d.find(unknown_marker); pos != std::string::npos) {
       const std::string key = d.substr(pos + unknown_marker.size(), d.size() - pos - unknown_marker.size() - 2);
       const std::string known = KnownKeys(schema, pointer);
-      problems.push_back(fmt::format("{}{}{}: unknown key (allowed keys: {})", pointer == "/" ? "" : pointer, "/",
-                                     key, known));
+      problems.push_back(
+          fmt::format("{}{}{}: unknown key (allowed keys: {})", pointer == "/" ? "" : pointer, "/", key, known));
       continue;
     }
     const nlohmann::json::json_pointer jp(pointer == "/" ? "" : pointer);
     const std::string value = doc.contains(jp) ? doc.at(jp).dump() : "(missing)";
     const std::string allowed = AllowedAt(schema, pointer);
-    problems.push_back(fmt::format("{}: {} (value {}{})", pointer, d, value,
-                                   allowed.empty() ? "" : "; allowed: " + allowed));
+    problems.push_back(
+        fmt::format("{}: {} (value {}{})", pointer, d, value, allowed.empty() ? "" : "; allowed: " + allowed));
   }
   return problems;
 }

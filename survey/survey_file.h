@@ -28,11 +28,11 @@ class ConfigError : public std::runtime_error {
 /// folder holding survey.json; `${ROADSURVEY_DATA}` in an input path is
 /// already expanded (survey/path_variables.h).
 struct SurveyFile {
-  std::filesystem::path path;      ///< absolute path of survey.json
-  std::string name;                ///< survey name
-  nlohmann::json inputs;           ///< the "inputs" object as validated, path variables expanded
-  std::filesystem::path output_dir;///< absolute output folder
-  std::string crs;                 ///< output CRS: "utm", "enu" or "EPSG:<code>"
+  std::filesystem::path path;        ///< absolute path of survey.json
+  std::string name;                  ///< survey name
+  nlohmann::json inputs;             ///< the "inputs" object as validated, path variables expanded
+  std::filesystem::path output_dir;  ///< absolute output folder
+  std::string crs;                   ///< output CRS: "utm", "enu" or "EPSG:<code>"
   nlohmann::json stage_options = nlohmann::json::object();  ///< "stages" object: stage -> overrides
 
   std::filesystem::path BaseDir() const { return path.parent_path(); }

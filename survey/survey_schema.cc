@@ -7,35 +7,38 @@
 namespace rs {
 
 const char* const kFrameLayouts[] = {"auto", "plain", "kitti-odometry", "kitti-raw", "euroc"};
-const char* const kFlightLogFormats[] = {"auto",     "csv",        "airdata-csv", "gpx",
-                                         "px4-ulog", "ardupilot-dataflash", "dji-srt", "kitti-oxts"};
+const char* const kFlightLogFormats[] = {
+    "auto", "csv", "airdata-csv", "gpx", "px4-ulog", "ardupilot-dataflash", "dji-srt", "kitti-oxts"};
 
 namespace {
 
 nlohmann::json PathInput(const std::string& description) {
-  return {{"type", "object"},
-          {"description", description},
-          {"additionalProperties", false},
-          {"required", {"path"}},
-          {"properties", {{"path", {{"type", "string"}, {"minLength", 1}, {"description", "file or folder, relative to survey.json"}}}}}};
+  return {
+      {"type", "object"},
+      {"description", description},
+      {"additionalProperties", false},
+      {"required", {"path"}},
+      {"properties",
+       {{"path", {{"type", "string"}, {"minLength", 1}, {"description", "file or folder, relative to survey.json"}}}}}};
 }
 
 }  // namespace
 
 nlohmann::json BuildSurveySchema(const StageRegistry& registry) {
   nlohmann::json frames = PathInput("stereo frames: a folder in one of the supported layouts (docs/formats.md)");
-  frames["properties"]["layout"] = {{"type", "string"},
-                                    {"default", "auto"},
-                                    {"description", "folder layout; auto detects it"},
-                                    {"enum", nlohmann::json(std::vector<std::string>(std::begin(kFrameLayouts),
-                                                                                      std::end(kFrameLayouts)))}};
-  nlohmann::json calibration = PathInput("stereo calibration file (docs/formats.md); optional when the layout carries one");
+  frames["properties"]["layout"] = {
+      {"type", "string"},
+      {"default", "auto"},
+      {"description", "folder layout; auto detects it"},
+      {"enum", nlohmann::json(std::vector<std::string>(std::begin(kFrameLayouts), std::end(kFrameLayouts)))}};
+  nlohmann::json calibration =
+      PathInput("stereo calibration file (docs/formats.md); optional when the layout carries one");
   nlohmann::json log = PathInput("flight log with GNSS (and attitude, camera events) for georeferencing");
-  log["properties"]["format"] = {{"type", "string"},
-                                 {"default", "auto"},
-                                 {"description", "log format; auto detects it"},
-                                 {"enum", nlohmann::json(std::vector<std::string>(std::begin(kFlightLogFormats),
-                                                                                   std::end(kFlightLogFormats)))}};
+  log["properties"]["format"] = {
+      {"type", "string"},
+      {"default", "auto"},
+      {"description", "log format; auto detects it"},
+      {"enum", nlohmann::json(std::vector<std::string>(std::begin(kFlightLogFormats), std::end(kFlightLogFormats)))}};
   log["properties"]["clock_offset_s"] = {
       {"type", "number"},
       {"default", 0.0},
@@ -68,7 +71,8 @@ nlohmann::json BuildSurveySchema(const StageRegistry& registry) {
          {{"type", "string"},
           {"default", "utm"},
           {"pattern", "^(utm|enu|EPSG:[0-9]{4,5})$"},
-          {"description", "output CRS: utm (zone of the survey), enu (local tangent plane at the first fix) or EPSG:<code>"}}},
+          {"description",
+           "output CRS: utm (zone of the survey), enu (local tangent plane at the first fix) or EPSG:<code>"}}},
         {"stages", stages}}}};
 }
 

@@ -49,17 +49,14 @@ RunResult Roadsurvey(const std::string& args) {
   return r;
 }
 
-fs::path DataRoot() {
-  return rs::test::DataRoot();
-}
+fs::path DataRoot() { return rs::test::DataRoot(); }
 
 /// A fresh folder per test, removed afterwards.
 class CliTools : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("rs_cli_tools_" + std::to_string(getpid()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    dir_ = fs::temp_directory_path() / ("rs_cli_tools_" + std::to_string(getpid()) + "_" +
+                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
     fs::remove_all(dir_);
     fs::create_directories(dir_);
   }
@@ -96,9 +93,9 @@ TEST_F(CliTools, StereoSegmentEvalNominal) {
   ASSERT_TRUE(cv::imwrite(P("left.png"), pair.left) && cv::imwrite(P("right.png"), pair.right));
   ASSERT_TRUE(cv::imwrite(P("gt.png"), ToKittiDisparity16(pair.gt, pair.gt > 0)));
   const double f_px = 500, baseline_m = 0.2;
-  RunResult r = Roadsurvey(fmt::format("stereo {} {} -o {} --transformed {} --preview {} --focal {} --baseline {} --cloud {}",
-                                    P("left.png"), P("right.png"), P("disp.png"), P("transformed.tiff"),
-                                    P("preview.png"), f_px, baseline_m, P("cloud.ply")));
+  RunResult r = Roadsurvey(fmt::format(
+      "stereo {} {} -o {} --transformed {} --preview {} --focal {} --baseline {} --cloud {}", P("left.png"),
+      P("right.png"), P("disp.png"), P("transformed.tiff"), P("preview.png"), f_px, baseline_m, P("cloud.ply")));
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_NE(r.output.find("method          gpt-sgm"), std::string::npos) << r.output;
   EXPECT_EQ(r.output.find("FELL BACK"), std::string::npos) << r.output;
@@ -164,7 +161,8 @@ TEST_F(CliTools, StereoSegmentEvalNominal) {
     ASSERT_TRUE(cv::imwrite((dir_ / "noc" / name).string(), pair.nonocc));
     ASSERT_TRUE(cv::imwrite((dir_ / "mask" / name).string(), pair.road));
   }
-  r = Roadsurvey(fmt::format("eval disparity {} {} --noc {} --mask {} --json -", P("est"), P("gt"), P("noc"), P("mask")));
+  r = Roadsurvey(
+      fmt::format("eval disparity {} {} --noc {} --mask {} --json -", P("est"), P("gt"), P("noc"), P("mask")));
   ASSERT_EQ(r.code, 0) << r.output;
   const nlohmann::json folders = nlohmann::json::parse(r.output);
   ASSERT_EQ(folders["files"].size(), 2u);
@@ -176,7 +174,7 @@ TEST_F(CliTools, StereoSegmentEvalNominal) {
 
   // segment the transformed disparity; the pothole is found where the truth disc is.
   r = Roadsurvey(fmt::format("segment {} -o {} --json {} --overlay {}", P("transformed.tiff"), P("labels.png"),
-                          P("det.json"), P("overlay.png")));
+                             P("det.json"), P("overlay.png")));
   ASSERT_EQ(r.code, 0) << r.output;
   const cv::Mat labels = cv::imread(P("labels.png"), cv::IMREAD_UNCHANGED);
   ASSERT_EQ(labels.type(), CV_16UC1);
@@ -211,8 +209,8 @@ TEST_F(CliTools, StereoCalibrationFile) {
   calib.right = calib.left;
   calib.t_right_left = {-0.25, 0, 0};
   WriteCalibrationYaml(fs::path(P("calibration.yaml")), calib);
-  RunResult r = Roadsurvey(fmt::format("stereo {} {} -o {} --calibration {}", P("l.png"), P("r.png"), P("d.png"),
-                                       P("calibration.yaml")));
+  RunResult r = Roadsurvey(
+      fmt::format("stereo {} {} -o {} --calibration {}", P("l.png"), P("r.png"), P("d.png"), P("calibration.yaml")));
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_NEAR(NumberAfter(r.output, "road range "), 400.0 * 0.25 / (o.c0 + o.cu * 160.0 + o.cv * 90.0), 0.02)
       << r.output;
@@ -234,7 +232,8 @@ TEST_F(CliTools, StereoCalibrationFile) {
   calib.left.width = calib.right.width = 640;
   calib.left.cx = calib.right.cx = 320;
   WriteCalibrationYaml(fs::path(P("wrong.yaml")), calib);
-  r = Roadsurvey(fmt::format("stereo {} {} -o {} --calibration {}", P("l.png"), P("r.png"), P("d2.png"), P("wrong.yaml")));
+  r = Roadsurvey(
+      fmt::format("stereo {} {} -o {} --calibration {}", P("l.png"), P("r.png"), P("d2.png"), P("wrong.yaml")));
   EXPECT_EQ(r.code, 2) << r.output;
   EXPECT_NE(r.output.find("calibrated for 640x180"), std::string::npos) << r.output;
 }
@@ -251,14 +250,15 @@ TEST_F(CliTools, BadOptionValues) {
   ASSERT_TRUE(cv::imwrite(P("l.png"), pair.left) && cv::imwrite(P("r.png"), pair.right));
   // Rejected by the flag's own check, by DisparityParams::Check, by a flag parser of ours.
   EXPECT_EQ(Roadsurvey(fmt::format("stereo {} {} -o {} --method bm", P("l.png"), P("r.png"), P("d.png"))).code, 2);
-  const RunResult r = Roadsurvey(fmt::format("stereo {} {} -o {} --num-disparities 0", P("l.png"), P("r.png"), P("d.png")));
+  const RunResult r =
+      Roadsurvey(fmt::format("stereo {} {} -o {} --num-disparities 0", P("l.png"), P("r.png"), P("d.png")));
   EXPECT_EQ(r.code, 2) << r.output;
   EXPECT_NE(r.output.find("num_disparities"), std::string::npos) << r.output;
-  EXPECT_EQ(Roadsurvey(fmt::format("stereo {} {} -o {} --cloud {}", P("l.png"), P("r.png"), P("d.png"), P("c.ply"))).code,
-            2);
+  EXPECT_EQ(
+      Roadsurvey(fmt::format("stereo {} {} -o {} --cloud {}", P("l.png"), P("r.png"), P("d.png"), P("c.ply"))).code, 2);
   EXPECT_EQ(Roadsurvey("bench damage --size 10x10").code, 2);
   EXPECT_EQ(Roadsurvey("bench damage --size wide").code, 2);
-  EXPECT_FALSE(fs::exists(P("d.png")));  // nothing written on bad usage
+  EXPECT_FALSE(fs::exists(P("d.png")));   // nothing written on bad usage
   EXPECT_EQ(Roadsurvey("eval").code, 2);  // a subcommand is required
   EXPECT_EQ(Roadsurvey("--help").code, 0);
 }
@@ -366,7 +366,8 @@ TEST_F(CliTools, EvalDamageMeasurements) {
   pred(cv::Rect(70, 70, 20, 20)).setTo(2);   // a false positive
   fs::create_directories(dir_ / "pred"), fs::create_directories(dir_ / "truth"), fs::create_directories(dir_ / "det");
   ASSERT_TRUE(cv::imwrite(P("pred/f1.png"), pred) && cv::imwrite(P("truth/f1.png"), truth));
-  std::ofstream(P("det/f1.json")) << R"({"detections": [{"id": 1, "area_m2": 0.30, "max_depth_m": 0.05, "volume_m3": null},
+  std::ofstream(P("det/f1.json"))
+      << R"({"detections": [{"id": 1, "area_m2": 0.30, "max_depth_m": 0.05, "volume_m3": null},
                                                         {"id": 2, "area_m2": 0.01, "max_depth_m": 0.02, "volume_m3": 0.0001}]})";
   std::ofstream(P("damages.geojson")) << R"({"type": "FeatureCollection", "features": [{"type": "Feature",
       "geometry": {"type": "Polygon", "coordinates": [[[14.5, 46.0], [14.5001, 46.0], [14.5001, 46.0001], [14.5, 46.0]]]},

@@ -101,8 +101,10 @@ TEST(Examples, MissingDataFolderIsALocatedInputError) {
   const std::string restore = saved ? saved : "";
   ::setenv("ROADSURVEY_DATA", (TempRoot() / "no_such_folder").c_str(), 1);
   const auto r = RunProgram("validate " + Quote(ExamplesDir() / "kitti_odometry_06.json"));
-  if (saved) ::setenv("ROADSURVEY_DATA", restore.c_str(), 1);
-  else ::unsetenv("ROADSURVEY_DATA");
+  if (saved)
+    ::setenv("ROADSURVEY_DATA", restore.c_str(), 1);
+  else
+    ::unsetenv("ROADSURVEY_DATA");
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("kitti_odometry_06.json:6:"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("not a folder"), std::string::npos) << r.output;

@@ -259,7 +259,7 @@ TEST_F(PipelineE2E, SchemaErrorsNameTheKey) {
   const fs::path survey = root_ / "bad_survey.json";
   auto doc = ReadJson(root_ / "survey" / "survey.json");
   doc["inputs"]["frames"]["path"] = (root_ / "survey").string();
-  doc["stages"]["disparity"]["max_disparty"] = 64;  // typo
+  doc["stages"]["disparity"]["max_disparty"] = 64;   // typo
   doc["stages"]["damage"]["write_overlay"] = "yes";  // ill-typed
   std::ofstream(survey) << doc.dump(2);
   const auto r = RunProgram("validate " + survey.string());

@@ -32,8 +32,8 @@ TEST(SchemaDrift, EveryOptionIsDocumented) {
     const std::string text((std::istreambuf_iterator<char>(in)), {});
     for (const auto& spec : stage->options().specs())
       EXPECT_NE(text.find("`" + spec.name + "`"), std::string::npos)
-          << page << " does not document option " << spec.name
-          << " (regenerate its table with `roadsurvey stages " << stage->info().name << " --markdown`)";
+          << page << " does not document option " << spec.name << " (regenerate its table with `roadsurvey stages "
+          << stage->info().name << " --markdown`)";
   }
 }
 

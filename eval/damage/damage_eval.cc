@@ -31,10 +31,14 @@ PixelMetrics ComparePixels(const cv::Mat& predicted, const cv::Mat& truth, const
     const uchar* ig = ignore.empty() ? nullptr : ignore.ptr<uchar>(v);
     for (int u = 0; u < p.cols; ++u) {
       if (ig && ig[u]) continue;
-      if (pr[u] && tr[u]) ++m.tp;
-      else if (pr[u]) ++m.fp;
-      else if (tr[u]) ++m.fn;
-      else ++m.tn;
+      if (pr[u] && tr[u])
+        ++m.tp;
+      else if (pr[u])
+        ++m.fp;
+      else if (tr[u])
+        ++m.fn;
+      else
+        ++m.tn;
     }
   }
   m.Finish();
@@ -42,8 +46,8 @@ PixelMetrics ComparePixels(const cv::Mat& predicted, const cv::Mat& truth, const
 }
 
 InstanceEvaluation MatchInstances(const cv::Mat& predicted_labels, const cv::Mat& truth_labels,
-                                  const std::vector<DamageInstance>& predicted,
-                                  const std::vector<TruthInstance>& truth, double min_iou) {
+                                  const std::vector<DamageInstance>& predicted, const std::vector<TruthInstance>& truth,
+                                  double min_iou) {
   if (predicted_labels.size() != truth_labels.size())
     throw std::invalid_argument("MatchInstances: label images differ in size");
   cv::Mat p, t;

@@ -24,8 +24,8 @@ TEST(ComparePixels, Nominal) {
 TEST(MatchInstances, Nominal) {
   cv::Mat p = cv::Mat::zeros(50, 50, CV_16U), t = cv::Mat::zeros(50, 50, CV_16U);
   p(cv::Rect(0, 0, 10, 10)).setTo(1);
-  p(cv::Rect(30, 30, 10, 10)).setTo(2);   // IoU 25/175 with truth 2: below 0.5
-  t(cv::Rect(0, 0, 10, 9)).setTo(1);      // IoU 0.9
+  p(cv::Rect(30, 30, 10, 10)).setTo(2);  // IoU 25/175 with truth 2: below 0.5
+  t(cv::Rect(0, 0, 10, 9)).setTo(1);     // IoU 0.9
   t(cv::Rect(35, 35, 10, 10)).setTo(2);
   DamageInstance d;
   d.id = 1, d.area_m2 = 0.11, d.max_depth_m = 0.05, d.volume_m3 = 0.002;

@@ -87,9 +87,8 @@ struct Visible {
   double width_px = 0;  // mean width across the crack in the image
 };
 
-Visible DrawVisible(const TruthCrack& c, int id, const Eigen::Isometry3d& T_world_cam,
-                                      const RectifiedStereo& g, const cv::Mat& truth_disp, double max_range_m,
-                                      cv::Mat& centre, cv::Mat& body) {
+Visible DrawVisible(const TruthCrack& c, int id, const Eigen::Isometry3d& T_world_cam, const RectifiedStereo& g,
+                    const cv::Mat& truth_disp, double max_range_m, cv::Mat& centre, cv::Mat& body) {
   const Eigen::Isometry3d T_cam_world = T_world_cam.inverse();
   const std::vector<Eigen::Vector3d>& line = c.centreline_world;
   double length = 0, z_sum = 0, w_sum = 0;
@@ -120,7 +119,8 @@ Visible DrawVisible(const TruthCrack& c, int id, const Eigen::Isometry3d& T_worl
       const Eigen::Vector3d across = dir.cross(Eigen::Vector3d::UnitZ()).normalized() * (0.5 * c.width_m);
       const Eigen::Vector3d mid = line[k] + (line[k + 1] - line[k]) * ((i + 0.5) / n);
       const Eigen::Vector3d e1 = T_cam_world * (mid + across), e2 = T_cam_world * (mid - across);
-      const double w_img = std::hypot(g.f_px * (e1.x() / e1.z() - e2.x() / e2.z()), g.f_px * (e1.y() / e1.z() - e2.y() / e2.z()));
+      const double w_img =
+          std::hypot(g.f_px * (e1.x() / e1.z() - e2.x() / e2.z()), g.f_px * (e1.y() / e1.z() - e2.y() / e2.z()));
       length += seg / n;
       z_sum += p.z() * seg / n;
       w_sum += w_img * seg / n;
@@ -227,8 +227,10 @@ SimCrackEvaluation EvaluateSimulatedCracks(const fs::path& dir, const SimCrackEv
         }
         if (det[u]) {
           ++r.detected_pixels, ++d_pixels[lab[u]], ++d_on[lab[u]][lb[u]];
-          if (ab[u]) ++r.detected_pixels_on_truth, ++d_on_any[lab[u]];
-          else if (std::isfinite(a[u])) d_false_area[lab[u]] += a[u];
+          if (ab[u])
+            ++r.detected_pixels_on_truth, ++d_on_any[lab[u]];
+          else if (std::isfinite(a[u]))
+            d_false_area[lab[u]] += a[u];
         }
       }
     }
@@ -270,7 +272,8 @@ SimCrackEvaluation EvaluateSimulatedCracks(const fs::path& dir, const SimCrackEv
         ++r.detected;
         double len = 0, wlen = 0;
         for (const DamageInstance* d : assigned[id])
-          if (std::isfinite(d->length_m) && std::isfinite(d->mean_width_m)) len += d->length_m, wlen += d->length_m * d->mean_width_m;
+          if (std::isfinite(d->length_m) && std::isfinite(d->mean_width_m))
+            len += d->length_m, wlen += d->length_m * d->mean_width_m;
         if (len > 0) {
           ob.length_m = len, ob.mean_width_m = wlen / len;
           length_pct.push_back(100.0 * (len - visible) / visible);
@@ -319,16 +322,18 @@ std::string SimCrackEvaluation::Report(bool per_observation) const {
       "({:.3f} m2 and {:.2f} m of false crack per frame)\n"
       "length error % (found): {}\nwidth error mm (found): {}\ncrack step median {:.1f} ms\n",
       frames, pixel_precision, pixel_recall, pixel_f1, truth_pixels, detected_pixels, observations.size(),
-      unique_cracks, unresolved, min_width_px, detected, instance_recall, detections, false_detections, false_area_m2_per_frame,
-      false_length_m_per_frame, stats(length_error_pct), stats(width_error_mm), ms_cracks_median);
+      unique_cracks, unresolved, min_width_px, detected, instance_recall, detections, false_detections,
+      false_area_m2_per_frame, false_length_m_per_frame, stats(length_error_pct), stats(width_error_mm),
+      ms_cracks_median);
   if (per_observation)
     for (const CrackObservation& ob : observations)
-      out += fmt::format("  {} crack {}: width {:.1f} mm ({:.1f} px), visible {:.2f} of {:.2f} m at {:.1f} m, coverage {:.2f}{}\n",
-                         ob.frame, ob.truth_id, 1000 * ob.truth_width_m, ob.width_px, ob.visible_length_m, ob.truth_length_m,
-                         ob.range_m, ob.coverage,
-                         std::isfinite(ob.length_m)
-                             ? fmt::format(" -> length {:.2f} m, width {:.1f} mm", ob.length_m, 1000 * ob.mean_width_m)
-                             : (ob.detected ? " found (no metric measurement)" : " missed"));
+      out += fmt::format(
+          "  {} crack {}: width {:.1f} mm ({:.1f} px), visible {:.2f} of {:.2f} m at {:.1f} m, coverage {:.2f}{}\n",
+          ob.frame, ob.truth_id, 1000 * ob.truth_width_m, ob.width_px, ob.visible_length_m, ob.truth_length_m,
+          ob.range_m, ob.coverage,
+          std::isfinite(ob.length_m)
+              ? fmt::format(" -> length {:.2f} m, width {:.1f} mm", ob.length_m, 1000 * ob.mean_width_m)
+              : (ob.detected ? " found (no metric measurement)" : " missed"));
   return out;
 }
 

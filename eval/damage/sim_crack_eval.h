@@ -47,38 +47,38 @@ struct SimCrackEvalOptions {
 struct CrackObservation {
   std::string frame;
   int truth_id = 0;
-  double truth_width_m = 0;         ///< the simulator's crack width
-  double truth_length_m = 0;        ///< whole crack
-  double visible_length_m = 0;      ///< its centreline in the image, unoccluded and within the analysed range
-  double range_m = 0;               ///< mean camera depth Z of the visible centreline
-  double width_px = 0;              ///< mean width across the crack in the image
-  double coverage = 0;              ///< share of its truth pixels in range within the tolerance of detections
-  bool detected = false;            ///< coverage ≥ min_coverage
-  double length_m = kUnknown;       ///< sum of the lengths of the detections assigned to it
-  double mean_width_m = kUnknown;   ///< their length-weighted mean width
+  double truth_width_m = 0;        ///< the simulator's crack width
+  double truth_length_m = 0;       ///< whole crack
+  double visible_length_m = 0;     ///< its centreline in the image, unoccluded and within the analysed range
+  double range_m = 0;              ///< mean camera depth Z of the visible centreline
+  double width_px = 0;             ///< mean width across the crack in the image
+  double coverage = 0;             ///< share of its truth pixels in range within the tolerance of detections
+  bool detected = false;           ///< coverage ≥ min_coverage
+  double length_m = kUnknown;      ///< sum of the lengths of the detections assigned to it
+  double mean_width_m = kUnknown;  ///< their length-weighted mean width
 };
 
 /// Aggregate over the evaluated frames.
 struct SimCrackEvaluation {
   int frames = 0;
-  long long truth_pixels = 0;        ///< centreline pixels of resolvable truth cracks within the analysed range
-  long long truth_pixels_found = 0;  ///< of those: within the tolerance of a detected crack pixel
-  long long detected_pixels = 0;     ///< crack-typed detection pixels
+  long long truth_pixels = 0;              ///< centreline pixels of resolvable truth cracks within the analysed range
+  long long truth_pixels_found = 0;        ///< of those: within the tolerance of a detected crack pixel
+  long long detected_pixels = 0;           ///< crack-typed detection pixels
   long long detected_pixels_on_truth = 0;  ///< of those: within the tolerance of any truth crack (incl. alligator)
   double pixel_precision = 0, pixel_recall = 0, pixel_f1 = 0;
   std::vector<CrackObservation> observations;  ///< every scored (frame, truth crack)
   int unique_cracks = 0;
-  int unresolved = 0;  ///< (frame, crack) pairs visible long enough but narrower than min_width_px
+  int unresolved = 0;       ///< (frame, crack) pairs visible long enough but narrower than min_width_px
   double min_width_px = 0;  ///< the option used
-  int detected = 0;  ///< observations found
+  int detected = 0;         ///< observations found
   double instance_recall = 0;
-  int detections = 0;        ///< crack-typed detections
-  int false_detections = 0;  ///< of those: on no truth crack (see min_detection_share)
-  double false_area_m2_per_frame = 0;  ///< road-plane area of false crack pixels per frame
-  double false_length_m_per_frame = 0; ///< reported length of false detections per frame
-  DamageErrorStats length_error_pct;   ///< found cracks: (measured − visible length) / visible length, %
-  DamageErrorStats width_error_mm;     ///< found cracks: measured mean width − truth width, mm
-  double ms_cracks_median = 0;         ///< crack step of DetectDamage (wall), ms
+  int detections = 0;                   ///< crack-typed detections
+  int false_detections = 0;             ///< of those: on no truth crack (see min_detection_share)
+  double false_area_m2_per_frame = 0;   ///< road-plane area of false crack pixels per frame
+  double false_length_m_per_frame = 0;  ///< reported length of false detections per frame
+  DamageErrorStats length_error_pct;    ///< found cracks: (measured − visible length) / visible length, %
+  DamageErrorStats width_error_mm;      ///< found cracks: measured mean width − truth width, mm
+  double ms_cracks_median = 0;          ///< crack step of DetectDamage (wall), ms
   /// Multi-line human-readable summary of every figure above, one line per observation when
   /// `per_observation`.
   std::string Report(bool per_observation = false) const;

@@ -51,13 +51,13 @@ TEST(SimCrackEval, DroneLowTruthDisparity) {
       EXPECT_NEAR(ob.visible_length_m, ob.truth_length_m, 0.02 * ob.truth_length_m) << ob.frame << " " << ob.truth_id;
     }
   EXPECT_GE(whole, 1);
-  EXPECT_GE(r.instance_recall, 0.8);             // measured 1.0 (8 observations of 3 cracks)
-  EXPECT_GE(r.pixel_precision, 0.9);             // 1.000
-  EXPECT_GE(r.pixel_recall, 0.8);                // 0.947
-  EXPECT_LE(r.false_area_m2_per_frame, 0.005);   // 0.000
+  EXPECT_GE(r.instance_recall, 0.8);               // measured 1.0 (8 observations of 3 cracks)
+  EXPECT_GE(r.pixel_precision, 0.9);               // 1.000
+  EXPECT_GE(r.pixel_recall, 0.8);                  // 0.947
+  EXPECT_LE(r.false_area_m2_per_frame, 0.005);     // 0.000
   EXPECT_LE(r.length_error_pct.median_abs, 15.0);  // 8.4 %
   // Widths are ~1 px too wide at 4 mm/px (blur widens the darkness profile): +4.5 mm mean.
-  EXPECT_LE(r.width_error_mm.median_abs, 6.0);   // 5.0 mm
+  EXPECT_LE(r.width_error_mm.median_abs, 6.0);  // 5.0 mm
 }
 
 // Figures on a full-size simulated survey (skipped unless ROADSURVEY_SIM_CRACK_EVAL_DIR is set):

@@ -239,7 +239,8 @@ SimDamageEvaluation EvaluateSimulatedDamage(const fs::path& dir, const SimDamage
           // Hidden in part behind a nearer obstacle (a parked car): cut like at the border.
           if (!edge && !border_t.count(t)) {
             const float d = truth_disp.at<float>(v, u);
-            for (const cv::Point n : {cv::Point(u - 1, v), cv::Point(u + 1, v), cv::Point(u, v - 1), cv::Point(u, v + 1)})
+            for (const cv::Point n :
+                 {cv::Point(u - 1, v), cv::Point(u + 1, v), cv::Point(u, v - 1), cv::Point(u, v + 1)})
               if (obstacle.at<uchar>(n) && truth_disp.at<float>(n) > d) border_t.insert(t);
           }
         }
@@ -277,8 +278,8 @@ SimDamageEvaluation EvaluateSimulatedDamage(const fs::path& dir, const SimDamage
         ++r.obstacle_detections;
         const cv::Rect box = cv::boundingRect(fd.labels == d.id);
         r.obstacle_detection_lines.push_back(
-            fmt::format("{} #{} {}: {:.4f} m2, {:.1f} mm deep, Z {:.1f} m, {:.0f} % on obstacle, bbox {}x{}+{}+{}", name,
-                        d.id, DamageTypeName(d.type), d.area_m2, 1000 * d.max_depth_m, d.range_m,
+            fmt::format("{} #{} {}: {:.4f} m2, {:.1f} mm deep, Z {:.1f} m, {:.0f} % on obstacle, bbox {}x{}+{}+{}",
+                        name, d.id, DamageTypeName(d.type), d.area_m2, 1000 * d.max_depth_m, d.range_m,
                         100.0 * on_obstacle_p[d.id] / area_p[d.id], box.width, box.height, box.x, box.y));
         debug_frame = true;
       }
@@ -317,10 +318,10 @@ SimDamageEvaluation EvaluateSimulatedDamage(const fs::path& dir, const SimDamage
       }
       ++r.false_positives;
       const cv::Rect box = cv::boundingRect(fd.labels == p);
-      r.false_detections.push_back(fmt::format("{} #{}: {:.4f} m2, {:.1f} mm deep (mean {:.1f}), Z {:.1f} m, {:.0f} % on damage, bbox {}x{}+{}+{}",
-                                               name, p, d->area_m2, 1000 * d->max_depth_m, 1000 * d->mean_depth_m, d->range_m,
-                                               100.0 * on_damage_p[p] / area_p[p], box.width, box.height, box.x,
-                                               box.y));
+      r.false_detections.push_back(fmt::format(
+          "{} #{}: {:.4f} m2, {:.1f} mm deep (mean {:.1f}), Z {:.1f} m, {:.0f} % on damage, bbox {}x{}+{}+{}", name, p,
+          d->area_m2, 1000 * d->max_depth_m, 1000 * d->mean_depth_m, d->range_m, 100.0 * on_damage_p[p] / area_p[p],
+          box.width, box.height, box.x, box.y));
       debug_frame = true;
     }
     for (const auto& [t, n] : area_t) {
@@ -374,13 +375,14 @@ SimDamageEvaluation EvaluateSimulatedDamage(const fs::path& dir, const SimDamage
           sigma_volume_pct_sum += 100.0 * d.sigma_volume_m3 / d.volume_m3;
         } else {
           ++r.volume_bounded_matches;
-          r.hidden_volume_contained += td.volume_m3 >= d.volume_seen_m3 - 2 * d.sigma_depth_m * d.area_m2 &&
-                                       td.volume_m3 <= d.volume_upper_m3;
+          r.hidden_volume_contained +=
+              td.volume_m3 >= d.volume_seen_m3 - 2 * d.sigma_depth_m * d.area_m2 && td.volume_m3 <= d.volume_upper_m3;
           volume_ratio.push_back(d.volume_upper_m3 / td.volume_m3);
           bounded_volume_est_pct.push_back(100.0 * (d.volume_m3 - td.volume_m3) / td.volume_m3);
         }
         if (ob.truth_visible_volume_m3 > 0)
-          visible_volume_pct.push_back(100.0 * (d.volume_seen_m3 - ob.truth_visible_volume_m3) / ob.truth_visible_volume_m3);
+          visible_volume_pct.push_back(100.0 * (d.volume_seen_m3 - ob.truth_visible_volume_m3) /
+                                       ob.truth_visible_volume_m3);
         area_pct.push_back(100.0 * (d.area_m2 - td.area_m2) / td.area_m2);
         volume_pct.push_back(100.0 * (d.volume_m3 - td.volume_m3) / td.volume_m3);
         within += std::abs(de) <= 2.0 * d.sigma_depth_m;
@@ -447,7 +449,8 @@ SimDamageEvaluation EvaluateSimulatedDamage(const fs::path& dir, const SimDamage
   r.ms_damage_max = ms_damage.empty() ? 0 : *std::max_element(ms_damage.begin(), ms_damage.end());
   r.ms_disparity_median = Percentile(ms_disp, 0.5);
   r.cpu_ms_damage_median = Percentile(cpu_damage, 0.5);
-  for (size_t j = 0; j < pass_names.size(); ++j) r.pass_ms_median.push_back({pass_names[j], Percentile(pass_ms[j], 0.5)});
+  for (size_t j = 0; j < pass_names.size(); ++j)
+    r.pass_ms_median.push_back({pass_names[j], Percentile(pass_ms[j], 0.5)});
   return r;
 }
 
@@ -457,7 +460,8 @@ std::string SimDamageEvaluation::Report() const {
                        s.median_abs, s.p95_abs, s.max_abs, s.n, fmt::arg("u", unit));
   };
   std::string passes;
-  for (const PassTime& p : pass_ms_median) passes += fmt::format("{}{} {:.1f}", passes.empty() ? "" : ", ", p.name, p.ms);
+  for (const PassTime& p : pass_ms_median)
+    passes += fmt::format("{}{} {:.1f}", passes.empty() ? "" : ", ", p.name, p.ms);
   std::string s = fmt::format(
       "{} frames {}x{}, disparity valid {:.1f} %, scored range <= {:.1f} m\n"
       "potholes scored: {} observations of {} potholes; recall {:.3f} ({}/{}); in view but below the sigma_Z rule: {}\n"
@@ -480,21 +484,20 @@ std::string SimDamageEvaluation::Report() const {
       "road model: median |true road - fitted| {:.2f} mm\n"
       "time per frame: DetectDamage median {:.1f} ms wall (max {:.1f}), {:.1f} ms CPU ({}); "
       "disparity median {:.1f} ms",
-      frames, width, height, 100 * disparity_valid_fraction, max_range_m, observations.size(), unique_potholes, recall, detected,
-      observations.size(), unconfirmable, detections, false_positives, ignored_detections, precision, obstacle_detections,
-      stats(depth_error_mm, " mm"), 100 * depth_within_2sigma, mean_sigma_depth_mm, stats(visible_depth_error_mm, " mm"),
-      occluded, stats(area_error_pct, " %"),
-      stats(volume_error_pct, " %"), stats(visible_volume_error_pct, " %"), seen_depth_error_mm.n,
-      stats(seen_depth_error_mm, " mm"), hidden_matches, hidden_depth_contained, hidden_matches,
+      frames, width, height, 100 * disparity_valid_fraction, max_range_m, observations.size(), unique_potholes, recall,
+      detected, observations.size(), unconfirmable, detections, false_positives, ignored_detections, precision,
+      obstacle_detections, stats(depth_error_mm, " mm"), 100 * depth_within_2sigma, mean_sigma_depth_mm,
+      stats(visible_depth_error_mm, " mm"), occluded, stats(area_error_pct, " %"), stats(volume_error_pct, " %"),
+      stats(visible_volume_error_pct, " %"), seen_depth_error_mm.n, stats(seen_depth_error_mm, " mm"), hidden_matches,
+      hidden_depth_contained, hidden_matches,
       fmt::format("median {:.2f}, max {:.2f}", hidden_bound_ratio.median_abs, hidden_bound_ratio.max_abs),
       stats(hidden_depth_estimate_error_mm, " mm"), seen_volume_error_pct.n, stats(seen_volume_error_pct, " %"),
       volume_bounded_matches, hidden_volume_contained, volume_bounded_matches,
       fmt::format("median {:.2f}, max {:.2f}", volume_upper_ratio.median_abs, volume_upper_ratio.max_abs),
-      stats(bounded_volume_estimate_error_pct, " %"), flag_agreements, detected,
-      flagged_hidden_truth_seen, flagged_seen_truth_hidden, hidden_flag_detections, detections, 100 * severity_agreement, 100 * area_within_2sigma,
-      mean_sigma_area_pct, 100 * volume_within_2sigma, mean_sigma_volume_pct, seen_volume_error_pct.n, road_median_abs_mm, ms_damage_median, ms_damage_max,
-      cpu_ms_damage_median, passes,
-      ms_disparity_median);
+      stats(bounded_volume_estimate_error_pct, " %"), flag_agreements, detected, flagged_hidden_truth_seen,
+      flagged_seen_truth_hidden, hidden_flag_detections, detections, 100 * severity_agreement, 100 * area_within_2sigma,
+      mean_sigma_area_pct, 100 * volume_within_2sigma, mean_sigma_volume_pct, seen_volume_error_pct.n,
+      road_median_abs_mm, ms_damage_median, ms_damage_max, cpu_ms_damage_median, passes, ms_disparity_median);
   return s;
 }
 

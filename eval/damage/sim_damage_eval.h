@@ -22,8 +22,8 @@ struct SimDamageEvalOptions {
   /// as the job graph does (the truth disparity has one image).
   bool use_sharp_disparity = true;
   DamageOptions damage;
-  double min_diameter_m = 0.3;       ///< truth potholes at least this wide (mean_diameter_m) are scored
-  double min_iou = 0.5;              ///< detection ↔ truth mask IoU needed for a match
+  double min_diameter_m = 0.3;  ///< truth potholes at least this wide (mean_diameter_m) are scored
+  double min_iou = 0.5;         ///< detection ↔ truth mask IoU needed for a match
   /// Only potholes whose mean camera depth (truth) is nearer are scored; 0 = the damage stage's
   /// analysed range in each frame (FrameDamage::analysed_range_m).
   double max_range_m = 0;
@@ -31,9 +31,9 @@ struct SimDamageEvalOptions {
   /// their range (σ_Z with damage.measure.sigma_disparity_px) are scored: shallower ones are by
   /// the stage's stated rule not confirmable there (see docs/stages/damage.md).
   bool require_confirmable_depth = true;
-  int frame_step = 1;                ///< evaluate every n-th frame
-  int max_frames = 0;                ///< 0 = all
-  double obstacle_margin_m = 0.05;   ///< truth obstacle volume grown by this much
+  int frame_step = 1;               ///< evaluate every n-th frame
+  int max_frames = 0;               ///< 0 = all
+  double obstacle_margin_m = 0.05;  ///< truth obstacle volume grown by this much
   /// Non-empty: writes overlays (truth outlines green/cyan) and depth images of frames with a miss
   /// or a false detection there, and prints the road fit and overlaps of misses to stderr.
   std::filesystem::path debug_dir;
@@ -92,15 +92,15 @@ struct SimDamageEvaluation {
   std::vector<PotholeObservation> observations;  ///< every scored (frame, truth pothole)
   int unique_potholes = 0;                       ///< distinct truth ids among the observations
   int detected = 0;                              ///< observations matched
-  int detections = 0;          ///< pothole-typed detections not touching the border
-  int false_positives = 0;     ///< of those: no match and < 50 % of pixels on any truth damage
-  int ignored_detections = 0;  ///< of those: on unscored truth damage (small potholes, cracks, patches)
-  int obstacle_detections = 0; ///< detections of any type with ≥ 50 % of their pixels on an obstacle
+  int detections = 0;                            ///< pothole-typed detections not touching the border
+  int false_positives = 0;                       ///< of those: no match and < 50 % of pixels on any truth damage
+  int ignored_detections = 0;   ///< of those: on unscored truth damage (small potholes, cracks, patches)
+  int obstacle_detections = 0;  ///< detections of any type with ≥ 50 % of their pixels on an obstacle
   double recall = 0, precision = 0;
-  DamageErrorStats depth_error_mm;     ///< estimated − truth max depth, mm (every match)
-  DamageErrorStats visible_depth_error_mm;  ///< seen (max_depth_seen_m) − truth depth visible in the frame, mm
+  DamageErrorStats depth_error_mm;            ///< estimated − truth max depth, mm (every match)
+  DamageErrorStats visible_depth_error_mm;    ///< seen (max_depth_seen_m) − truth depth visible in the frame, mm
   DamageErrorStats visible_volume_error_pct;  ///< (seen − visible truth volume) / visible truth volume, %
-  int occluded = 0;  ///< matched observations whose visible depth is > 10 mm less than the true depth
+  int occluded = 0;       ///< matched observations whose visible depth is > 10 mm less than the true depth
   int unconfirmable = 0;  ///< truth potholes in range left unscored: shallower than the σ_Z rule allows
   /// The accuracy errors against the true values, scored only where the stage says it saw
   /// the whole: max depth where floor_visible, volume where no volume_upper_m3 is stated.
@@ -108,37 +108,37 @@ struct SimDamageEvaluation {
   /// Where the stage says the floor is hidden: matches, and how many hold the true max depth
   /// within the stated interval [max_depth_seen_m − 2 σ_Z, max_depth_bound_m].
   int hidden_matches = 0, hidden_depth_contained = 0;
-  DamageErrorStats hidden_bound_ratio;  ///< max_depth_bound_m / true max depth (how loose the bound is)
+  DamageErrorStats hidden_bound_ratio;              ///< max_depth_bound_m / true max depth (how loose the bound is)
   DamageErrorStats hidden_depth_estimate_error_mm;  ///< there: estimated − true max depth, mm
   /// Where the stage states a volume upper bound: matches, and how many hold the true volume
   /// within [volume_seen_m3 − 2 σ_Z·area_m2, volume_upper_m3].
   int volume_bounded_matches = 0, hidden_volume_contained = 0;
-  DamageErrorStats volume_upper_ratio;  ///< volume_upper_m3 / true volume
+  DamageErrorStats volume_upper_ratio;                 ///< volume_upper_m3 / true volume
   DamageErrorStats bounded_volume_estimate_error_pct;  ///< there: (estimated − true) / true volume, %
   /// The flag against the truth (floor hidden by > 10 mm): agreements over the matches, and
   /// the two kinds of disagreement.
   int flag_agreements = 0, flagged_hidden_truth_seen = 0, flagged_seen_truth_hidden = 0;
-  int hidden_flag_detections = 0;  ///< pothole detections (as counted in `detections`) flagged hidden
-  DamageErrorStats area_error_pct;     ///< (measured − truth) / truth area, %
-  DamageErrorStats volume_error_pct;   ///< (estimated − truth) / truth volume, % (every match)
-  double depth_within_2sigma = 0;  ///< share of matches with |depth error| ≤ 2 σ_Z
-  double mean_sigma_depth_mm = 0;  ///< mean σ_Z of the matches, mm
+  int hidden_flag_detections = 0;     ///< pothole detections (as counted in `detections`) flagged hidden
+  DamageErrorStats area_error_pct;    ///< (measured − truth) / truth area, %
+  DamageErrorStats volume_error_pct;  ///< (estimated − truth) / truth volume, % (every match)
+  double depth_within_2sigma = 0;     ///< share of matches with |depth error| ≤ 2 σ_Z
+  double mean_sigma_depth_mm = 0;     ///< mean σ_Z of the matches, mm
   /// The stated area uncertainty: share of matches with |area error| ≤ 2 σ_area, and the mean
   /// σ_area relative to the measured area, %.
   double area_within_2sigma = 0, mean_sigma_area_pct = 0;
   /// The stated volume uncertainty where the volume is seen (no upper bound): share of those
   /// matches with |volume error| ≤ 2 σ_volume, and the mean σ_volume relative to the volume, %.
   double volume_within_2sigma = 0, mean_sigma_volume_pct = 0;
-  double severity_agreement = 0;   ///< share of matches whose ASTM level equals the truth severity
-  double road_median_abs_mm = 0;   ///< median |height of the true intact road above the fitted surface|, mm
+  double severity_agreement = 0;        ///< share of matches whose ASTM level equals the truth severity
+  double road_median_abs_mm = 0;        ///< median |height of the true intact road above the fitted surface|, mm
   double disparity_valid_fraction = 0;  ///< mean share of valid disparities
   double ms_damage_median = 0, ms_damage_max = 0;  ///< DetectDamage wall time per frame
   double ms_disparity_median = 0;                  ///< ComputeDisparity wall time (0 with truth disparity)
   std::vector<PassTime> pass_ms_median;  ///< median wall time of each pass of DetectDamage (DamagePassNames order)
-  double cpu_ms_damage_median = 0;  ///< DetectDamage process CPU time (all threads): the one-core bound
+  double cpu_ms_damage_median = 0;       ///< DetectDamage process CPU time (all threads): the one-core bound
   int width = 0, height = 0;
-  double max_range_m = 0;  ///< scored range used (the largest over the frames)
-  std::vector<std::string> false_detections;  ///< "frame id: area, depth, bbox" of each false positive
+  double max_range_m = 0;                             ///< scored range used (the largest over the frames)
+  std::vector<std::string> false_detections;          ///< "frame id: area, depth, bbox" of each false positive
   std::vector<std::string> obstacle_detection_lines;  ///< "frame id type: area, depth, bbox" of each obstacle detection
   /// Multi-line human-readable summary of every figure above.
   std::string Report() const;

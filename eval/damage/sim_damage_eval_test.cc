@@ -30,9 +30,9 @@ namespace fs = std::filesystem;
 // `without_obstacles`: the same flight over the same road and damage, its parked cars and people left out.
 fs::path RenderSmall(const std::string& preset, int frames, double frame_rate_hz, bool full = false, int seed = 0,
                      bool without_obstacles = false) {
-  const fs::path dir = fs::temp_directory_path() / fmt::format("rs_sim_damage_eval_{}{}_{}_{}_{}", preset,
-                                                               without_obstacles ? "_bare" : "", full ? 1280 : 640,
-                                                               seed, ::getpid());
+  const fs::path dir =
+      fs::temp_directory_path() / fmt::format("rs_sim_damage_eval_{}{}_{}_{}_{}", preset,
+                                              without_obstacles ? "_bare" : "", full ? 1280 : 640, seed, ::getpid());
   if (fs::exists(dir / "truth/trajectory.tum")) return dir;
   test::RemoveAtExit(dir);
   SimulationOptions o = PresetOptions(preset);
@@ -195,12 +195,12 @@ TEST(SimDamageEval, CarTruthDisparity) {
   // UTC depth |error| max 35.3 mm (hidden floors +13..+35 mm; seen ones <= 6 mm), volume |error|
   // median 4.9 %, p95 14.7 %, max 35.2 % (one pothole at 6.2 m whose seen part is short too);
   // before (the seen depth and volume as the estimate): 53.4 mm, median 19 %, max 69 %.
-  EXPECT_LE(r.depth_error_mm.max_abs, 45.0);         // guard
+  EXPECT_LE(r.depth_error_mm.max_abs, 45.0);  // guard
   EXPECT_LE(r.volume_error_pct.median_abs, 8.0);
-  EXPECT_LE(r.volume_error_pct.max_abs, 45.0);       // guard: 40.5 % (id 29)
+  EXPECT_LE(r.volume_error_pct.max_abs, 45.0);                // guard: 40.5 % (id 29)
   EXPECT_LE(r.hidden_depth_estimate_error_mm.max_abs, 45.0);  // guard
-  EXPECT_LE(r.area_error_pct.p95_abs, 11.0);         // measured 10.0 %
-  EXPECT_LE(r.area_error_pct.max_abs, 50.0);         // guard: 47.0 % (id 29)
+  EXPECT_LE(r.area_error_pct.p95_abs, 11.0);                  // measured 10.0 %
+  EXPECT_LE(r.area_error_pct.max_abs, 50.0);                  // guard: 47.0 % (id 29)
   EXPECT_GE(r.severity_agreement, 0.95);
   EXPECT_EQ(r.obstacle_detections, 0);
   EXPECT_LE(r.road_median_abs_mm, 1.0);
@@ -263,7 +263,7 @@ TEST(SimDamageEval, Benchmark) {
   SimDamageEvalOptions o;
   if (const char* step = std::getenv("ROADSURVEY_SIM_EVAL_STEP")) o.frame_step = std::atoi(step);
   o.use_truth_disparity = std::getenv("ROADSURVEY_SIM_EVAL_TRUTH") != nullptr;
-  o.use_sharp_disparity = std::getenv("ROADSURVEY_SIM_EVAL_NO_SHARP") == nullptr;  // one image (smooth) only
+  o.use_sharp_disparity = std::getenv("ROADSURVEY_SIM_EVAL_NO_SHARP") == nullptr;        // one image (smooth) only
   o.disparity.road.quadratic = std::getenv("ROADSURVEY_SIM_EVAL_QUADRATIC") != nullptr;  // cambered road model
   // Also score potholes shallower than the stage's σ_Z rule allows at their range.
   o.require_confirmable_depth = std::getenv("ROADSURVEY_SIM_EVAL_ALL_DEPTHS") == nullptr;
@@ -280,18 +280,19 @@ TEST(SimDamageEval, Benchmark) {
   }
   const SimDamageEvaluation r = EvaluateSimulatedDamage(dir, o);
   std::cout << (o.use_truth_disparity ? "[truth disparity] " : "[computed disparity] ") << dir << "\n"
-            << r.Report() << "\n" << SummarisePerPothole(r).Report() << "\n";
+            << r.Report() << "\n"
+            << SummarisePerPothole(r).Report() << "\n";
   if (std::getenv("ROADSURVEY_SIM_EVAL_VERBOSE"))
     for (const auto& ob : r.observations)
-      std::cout << fmt::format("  {} Z {:.1f} m id {} det {} iou {:.2f} depth {:.1f}/{:.1f} (seen {:.1f}, visible {:.1f}) mm area "
-                               "{:.4f}/{:.4f} vol {:.6f}/{:.6f} (seen {:.6f}, visible {:.6f}) sev {}/{} floor {} (truth {}) "
-                               "bound {:.1f} mm vol<= {:.6f} sA {:.4f} sV {:.6f}\n",
-                               ob.frame, ob.range_m, ob.truth_id, ob.detected, ob.iou, 1000 * ob.max_depth_m,
-                               1000 * ob.truth_max_depth_m, 1000 * ob.max_depth_seen_m, 1000 * ob.truth_visible_depth_m,
-                               ob.area_m2, ob.truth_area_m2, ob.volume_m3, ob.truth_volume_m3, ob.volume_seen_m3,
-                               ob.truth_visible_volume_m3, SeverityLevelName(ob.astm), ob.truth_severity,
-                               ob.floor_visible ? "seen" : "hidden", ob.truth_floor_hidden ? "hidden" : "seen",
-                               1000 * ob.max_depth_bound_m, ob.volume_upper_m3, ob.sigma_area_m2, ob.sigma_volume_m3);
+      std::cout << fmt::format(
+          "  {} Z {:.1f} m id {} det {} iou {:.2f} depth {:.1f}/{:.1f} (seen {:.1f}, visible {:.1f}) mm area "
+          "{:.4f}/{:.4f} vol {:.6f}/{:.6f} (seen {:.6f}, visible {:.6f}) sev {}/{} floor {} (truth {}) "
+          "bound {:.1f} mm vol<= {:.6f} sA {:.4f} sV {:.6f}\n",
+          ob.frame, ob.range_m, ob.truth_id, ob.detected, ob.iou, 1000 * ob.max_depth_m, 1000 * ob.truth_max_depth_m,
+          1000 * ob.max_depth_seen_m, 1000 * ob.truth_visible_depth_m, ob.area_m2, ob.truth_area_m2, ob.volume_m3,
+          ob.truth_volume_m3, ob.volume_seen_m3, ob.truth_visible_volume_m3, SeverityLevelName(ob.astm),
+          ob.truth_severity, ob.floor_visible ? "seen" : "hidden", ob.truth_floor_hidden ? "hidden" : "seen",
+          1000 * ob.max_depth_bound_m, ob.volume_upper_m3, ob.sigma_area_m2, ob.sigma_volume_m3);
   if (std::getenv("ROADSURVEY_SIM_EVAL_VERBOSE"))
     for (const auto& f : r.false_detections) std::cout << "  false: " << f << "\n";
   if (std::getenv("ROADSURVEY_SIM_EVAL_VERBOSE"))

@@ -13,9 +13,9 @@ namespace rs {
 
 /// Differences (with obstacles − without) over the observations matched in both evaluations.
 struct PairedObstacleFigures {
-  int paired = 0;            ///< observations scored in both renders and detected in both
-  int only_with = 0;         ///< scored in both, detected only with the obstacles
-  int only_without = 0;      ///< scored in both, detected only without them
+  int paired = 0;               ///< observations scored in both renders and detected in both
+  int only_with = 0;            ///< scored in both, detected only with the obstacles
+  int only_without = 0;         ///< scored in both, detected only without them
   int scored_only_without = 0;  ///< scored only without the obstacles (hidden by one, or its ground)
   /// Per paired observation: Δ|area error| and Δ|volume error| (percentage points), Δ|max depth
   /// error| (mm, where both say the floor is seen). Positive: worse with the obstacles.

@@ -21,10 +21,10 @@ PotholeObservation Obs(const char* frame, int id, bool detected, double area_m2,
 // size is no change; unpaired and one-sided detections are counted apart.
 TEST(SimDamagePair, ComparesTheSameObservationsOnly) {
   SimDamageEvaluation with, without;
-  with.observations = {Obs("000001", 4, true, 0.22, 0.0036, 0.047),   // +10 %, -10 %, -3 mm
-                       Obs("000002", 4, true, 0.18, 0.0040, 0.052),   // -10 %, 0 %, +2 mm
-                       Obs("000002", 5, true, 0.20, 0.0040, 0.050),   // detected only with
-                       Obs("000003", 6, false, 0, 0, 0)};             // missed in both
+  with.observations = {Obs("000001", 4, true, 0.22, 0.0036, 0.047),  // +10 %, -10 %, -3 mm
+                       Obs("000002", 4, true, 0.18, 0.0040, 0.052),  // -10 %, 0 %, +2 mm
+                       Obs("000002", 5, true, 0.20, 0.0040, 0.050),  // detected only with
+                       Obs("000003", 6, false, 0, 0, 0)};            // missed in both
   with.road_median_abs_mm = 0.50;
   without.observations = {Obs("000001", 4, true, 0.21, 0.0036, 0.049),  // +5 %, -10 %, -1 mm
                           Obs("000002", 4, true, 0.22, 0.0040, 0.052),  // +10 %, 0 %, +2 mm

@@ -20,9 +20,9 @@ struct SimDamageSurveyFigures {
   /// The kept observation's errors (measured − truth): max depth where the stage says the floor
   /// is seen (mm), area and volume against the true values (%), over the detected potholes.
   DamageErrorStats seen_depth_error_mm, area_error_pct, volume_error_pct;
-  int floor_seen = 0;           ///< kept observations whose floor the stage says it sees
+  int floor_seen = 0;  ///< kept observations whose floor the stage says it sees
   double severity_agreement = 0;
-  DamageErrorStats kept_range_m;  ///< range of the kept observations (n, mean, median |.|, max)
+  DamageErrorStats kept_range_m;         ///< range of the kept observations (n, mean, median |.|, max)
   std::vector<PotholeObservation> kept;  ///< the kept observation per detected pothole
   std::string Report() const;
 };

@@ -17,8 +17,8 @@ namespace {
 cv::Mat ReadPng(const fs::path& path, int type) {
   const cv::Mat m = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
   if (m.empty() || m.type() != type)
-    throw InputError(InputLocation::File(path.string()), type == CV_16UC1 ? "expected a 16-bit grey PNG"
-                                                                          : "expected an 8-bit grey image");
+    throw InputError(InputLocation::File(path.string()),
+                     type == CV_16UC1 ? "expected a 16-bit grey PNG" : "expected an 8-bit grey image");
   return m;
 }
 

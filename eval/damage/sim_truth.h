@@ -20,10 +20,10 @@ namespace rs {
 struct SimSurveyTruth {
   std::filesystem::path dir;
   RectifiedStereo geometry;         ///< from calibration.yaml (rectified pair)
-  Trajectory trajectory;           ///< truth/trajectory.tum: one pose per frame
-  nlohmann::json scene;            ///< truth/scene.json
-  SimulationOptions options;       ///< the scene's "options": the intact road's geometry
-  std::vector<std::string> frames; ///< stems of left/*.png, sorted; frames[k] has trajectory pose k
+  Trajectory trajectory;            ///< truth/trajectory.tum: one pose per frame
+  nlohmann::json scene;             ///< truth/scene.json
+  SimulationOptions options;        ///< the scene's "options": the intact road's geometry
+  std::vector<std::string> frames;  ///< stems of left/*.png, sorted; frames[k] has trajectory pose k
 };
 
 /// One frame: the left image, the truth instance masks (16-bit ids) and the truth disparity (px).

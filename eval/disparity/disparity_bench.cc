@@ -45,8 +45,10 @@ int RunFan2021(const std::string& dir, const std::string& out_dir, double scale,
   params.num_disparities = 256;  // fallback range at the working scale
   // A rig ~1 m above the road: potholes reach ~15 px below the road at half size.
   params.gpt_delta_px = 20, params.gpt_num_disparities = 48;
-  std::printf("| pair | size | road model a0, a1, roll | matches / inliers | RMS px | reliable | disparities | valid density (all) | valid density (road visible in right view) | ms |\n"
-              "|---|---|---|---|---|---|---|---|---|---|\n");
+  std::printf(
+      "| pair | size | road model a0, a1, roll | matches / inliers | RMS px | reliable | disparities | valid density "
+      "(all) | valid density (road visible in right view) | ms |\n"
+      "|---|---|---|---|---|---|---|---|---|---|\n");
   for (int i = 1; i <= 5; ++i) {
     const std::string lp = dir + "/left images/L" + std::to_string(i) + ".png";
     const std::string rp = dir + "/right images/R" + std::to_string(i) + ".png";
@@ -63,9 +65,9 @@ int RunFan2021(const std::string& dir, const std::string& out_dir, double scale,
     for (int v = 0; v < l.rows; ++v)
       for (int u = 0; u < l.cols; ++u)
         if (u - m.At(u, v) >= 0) ++visible, visible_valid += res.valid.at<uint8_t>(v, u) != 0;
-    std::printf("| L%d/R%d | %dx%d | %.2f, %.4f, %.2f deg | %d / %d | %.2f | %s | %d%s | %.1f %% | %.1f %% | %.0f |\n", i, i, l.cols,
-                l.rows, m.a0, m.a1, m.roll_rad * 180 / M_PI, m.num_matches, m.num_inliers, m.residual_rms_px,
-                m.reliable ? "yes" : "no", res.num_disparities, res.fell_back ? " (fell back)" : "",
+    std::printf("| L%d/R%d | %dx%d | %.2f, %.4f, %.2f deg | %d / %d | %.2f | %s | %d%s | %.1f %% | %.1f %% | %.0f |\n",
+                i, i, l.cols, l.rows, m.a0, m.a1, m.roll_rad * 180 / M_PI, m.num_matches, m.num_inliers,
+                m.residual_rms_px, m.reliable ? "yes" : "no", res.num_disparities, res.fell_back ? " (fell back)" : "",
                 100 * res.valid_fraction, 100.0 * visible_valid / std::max<int64_t>(1, visible), res.timings.total_ms);
     if (out_dir.empty()) continue;
     std::vector<float> vals;  // colour range: 0.5th to 99.5th percentile of valid disparities
@@ -110,11 +112,14 @@ int RunEuroc(const std::string& mav0, const std::string& out_dir, rs::DisparityP
   params.num_disparities = 64;
   std::printf("rectified: f = %.1f px, B = %.4f m, %dx%d\n", rectifier.rectified().left.fx,
               rectifier.rectified().BaselineM(), rectifier.rectified().left.width, rectifier.rectified().left.height);
-  std::printf("| frame | road (floor) model a0, a1, roll | matches / inliers | RMS px | fell back | range | valid (all) | floor pixels | valid on floor |\n"
-              "|---|---|---|---|---|---|---|---|---|\n");
+  std::printf(
+      "| frame | road (floor) model a0, a1, roll | matches / inliers | RMS px | fell back | range | valid (all) | "
+      "floor pixels | valid on floor |\n"
+      "|---|---|---|---|---|---|---|---|---|\n");
   for (size_t i = 0; i < lefts.size(); i += 15) {
     const fs::path rp = fs::path(mav0) / "cam1/data" / lefts[i].filename();
-    cv::Mat l_raw = cv::imread(lefts[i].string(), cv::IMREAD_GRAYSCALE), r_raw = cv::imread(rp.string(), cv::IMREAD_GRAYSCALE);
+    cv::Mat l_raw = cv::imread(lefts[i].string(), cv::IMREAD_GRAYSCALE),
+            r_raw = cv::imread(rp.string(), cv::IMREAD_GRAYSCALE);
     if (l_raw.empty() || r_raw.empty()) continue;  // cam1 lists stamps without images
     cv::Mat l, r;
     rectifier.Rectify(l_raw, r_raw, &l, &r);
@@ -147,15 +152,15 @@ int RunEuroc(const std::string& mav0, const std::string& out_dir, rs::DisparityP
     const int64_t n_floor = cv::countNonZero(floor), n_valid = cv::countNonZero(floor & res.valid);
     const rs::RoadModel& m = res.road;
     const std::string name = lefts[i].stem().string();
-    std::printf("| %zu (%s) | %.2f, %.4f, %.2f deg | %d / %d | %.2f | %s | %d | %.1f %% | %lld | %.1f %% |\n", i, name.c_str(),
-                m.a0, m.a1, m.roll_rad * 180 / M_PI, m.num_matches, m.num_inliers, m.residual_rms_px,
+    std::printf("| %zu (%s) | %.2f, %.4f, %.2f deg | %d / %d | %.2f | %s | %d | %.1f %% | %lld | %.1f %% |\n", i,
+                name.c_str(), m.a0, m.a1, m.roll_rad * 180 / M_PI, m.num_matches, m.num_inliers, m.residual_rms_px,
                 res.fell_back ? "yes" : "no", res.num_disparities, 100 * res.valid_fraction,
                 static_cast<long long>(n_floor), n_floor ? 100.0 * n_valid / n_floor : 0.0);
     if (out_dir.empty()) continue;
     const std::string base = out_dir + "/disparity_euroc_v101_" + std::to_string(i);
     cv::imwrite(base + "_disparity.jpg", rs::ColorizeDisparity(res.disparity, res.valid, 0, 48),
                 {cv::IMWRITE_JPEG_QUALITY, 90});  // a PNG of this colour map is ~155 KB
-    cv::Mat overlay;  // left image with the floor region tinted
+    cv::Mat overlay;                              // left image with the floor region tinted
     cv::cvtColor(l, overlay, cv::COLOR_GRAY2BGR);
     overlay.setTo(cv::Scalar(0, 160, 0), floor & (res.valid == 0));
     for (int v = 0; v < l.rows; ++v)
@@ -170,8 +175,8 @@ int RunEuroc(const std::string& mav0, const std::string& out_dir, rs::DisparityP
 }
 
 // Error map of GPT-SGM on a simulated pair: grey = not evaluated (darker: not road), green = road
-// within 0.3 px, cyan = road 0.3..1 px, yellow = road 1..3 px, red = road D1 error, blue = road invalid, magenta = pothole
-// error > 0.5 px. Written as <out>/<survey>_<frame>_errors.png.
+// within 0.3 px, cyan = road 0.3..1 px, yellow = road 1..3 px, red = road D1 error, blue = road invalid, magenta =
+// pothole error > 0.5 px. Written as <out>/<survey>_<frame>_errors.png.
 void WriteErrorMap(const rs::StereoPairWithTruth& p, rs::DisparityParams params, const std::string& out) {
   params.camera_focal_px = p.focal_px;
   const rs::DisparityResult r = rs::ComputeDisparity(p.left, p.right, params);
@@ -185,11 +190,16 @@ void WriteErrorMap(const rs::StereoPairWithTruth& p, rs::DisparityParams params,
       const double e = std::abs(r.disparity.at<float>(v, u) - g);
       cv::Vec3b& c = img.at<cv::Vec3b>(v, u);
       if (p.road.at<uint8_t>(v, u)) {
-        if (!ok) c = {255, 0, 0};
-        else if (e > 3 && e > 0.05 * g) c = {0, 0, 255};
-        else if (e > 1) c = {0, 255, 255};
-        else if (e > 0.3) c = {255, 255, 0};  // cyan: 0.3..1 px, already ~4-12 cm of depth at 6 m
-        else c = {c[0], static_cast<uint8_t>(std::min(255, c[1] + 80)), c[2]};
+        if (!ok)
+          c = {255, 0, 0};
+        else if (e > 3 && e > 0.05 * g)
+          c = {0, 0, 255};
+        else if (e > 1)
+          c = {0, 255, 255};
+        else if (e > 0.3)
+          c = {255, 255, 0};  // cyan: 0.3..1 px, already ~4-12 cm of depth at 6 m
+        else
+          c = {c[0], static_cast<uint8_t>(std::min(255, c[1] + 80)), c[2]};
       } else if (p.pothole.at<uint8_t>(v, u) && ok && e > 0.5) {
         c = {255, 0, 255};
       }
@@ -204,7 +214,8 @@ void WriteErrorMap(const rs::StereoPairWithTruth& p, rs::DisparityParams params,
         const int b = std::min(9, static_cast<int>((g - std::floor(g)) * 10));
         sum[b] += e, cnt[b] += 1, total += e, n_total += 1;
       }
-  std::printf("%s: road signed error mean %.3f px; by frac(gt) 0.0..0.9:", p.name.c_str(), total / std::max(1.0, n_total));
+  std::printf("%s: road signed error mean %.3f px; by frac(gt) 0.0..0.9:", p.name.c_str(),
+              total / std::max(1.0, n_total));
   for (int b = 0; b < 10; ++b) std::printf(" %.3f", cnt[b] ? sum[b] / cnt[b] : 0.0);
   std::printf("\n");
   std::string name = p.name;
@@ -216,7 +227,8 @@ void WriteErrorMap(const rs::StereoPairWithTruth& p, rs::DisparityParams params,
   for (int v = 0; v < p.gt.rows; ++v)
     for (int u = 0; u < p.gt.cols; ++u)
       if (p.road.at<uint8_t>(v, u) && r.valid.at<uint8_t>(v, u))
-        signed_err.at<uint8_t>(v, u) = cv::saturate_cast<uint8_t>(128 + 400 * (r.disparity.at<float>(v, u) - p.gt.at<float>(v, u)));
+        signed_err.at<uint8_t>(v, u) =
+            cv::saturate_cast<uint8_t>(128 + 400 * (r.disparity.at<float>(v, u) - p.gt.at<float>(v, u)));
   cv::imwrite(out + "/" + name + "_signed.png", signed_err);
   std::printf("%s: road model %s (matches %d, inliers %d, rms %.2f px, c = %.2f %.4f %.4f), fell back %d, range %d\n",
               p.name.c_str(), r.road.reliable ? "reliable" : "unreliable", r.road.num_matches, r.road.num_inliers,
@@ -240,15 +252,19 @@ void PrintRoadBands(const std::vector<rs::StereoPairWithTruth>& pairs, const rs:
     const auto all = rs::MeasureRoadErrors(p, r.disparity, r.valid);
     const std::string survey = p.name.substr(0, p.name.rfind('/'));
     auto& [acc, acc_all] = pooled[survey];
-    if (acc.empty()) acc = bands, order.push_back(survey);
-    else for (size_t b = 0; b < bands.size(); ++b) acc[b].Add(bands[b]);
+    if (acc.empty())
+      acc = bands, order.push_back(survey);
+    else
+      for (size_t b = 0; b < bands.size(); ++b) acc[b].Add(bands[b]);
     acc_all.Add(all);
     std::printf("%s: fell back %d; %s\n", p.name.c_str(), r.fell_back ? 1 : 0, all.Format().c_str());
   }
   for (const auto& survey : order) {
     const auto& [acc, all] = pooled[survey];
-    std::printf("\n%s (%s)\n| rows | road px | valid | mean truth d px | EPE px (|e|<=1) | signed mean px | row stripe RMS px | share |e|>1 |\n|---|---|---|---|---|---|---|---|\n",
-                survey.c_str(), all.Format().c_str());
+    std::printf(
+        "\n%s (%s)\n| rows | road px | valid | mean truth d px | EPE px (|e|<=1) | signed mean px | row stripe RMS px "
+        "| share |e|>1 |\n|---|---|---|---|---|---|---|---|\n",
+        survey.c_str(), all.Format().c_str());
     for (const auto& b : acc)
       if (b.road)
         std::printf("| %d-%d | %lld | %.2f %% | %.1f | %.4f | %+.4f | %.4f | %.2f %% |\n", b.row_begin, b.row_end,
@@ -266,28 +282,45 @@ int main(int argc, char** argv) {
   std::string fan_dir, out_dir, only, euroc_dir;
   double fan_scale = 0.5;
   std::vector<std::string> sims;
-  int sim_range = 0;  // > 0: plain-SGM range of the simulated pairs instead of their truth's
+  int sim_range = 0;       // > 0: plain-SGM range of the simulated pairs instead of their truth's
   bool sim_bands = false;  // GPT-SGM's road error by row band instead of the benchmark table
   rs::SimulatedPairOptions sim_options;
   nlohmann::json option_json = rs::DisparityStageOptions::Table().ToJson(rs::DisparityStageOptions{});
   for (int i = 1; i < argc; ++i) {
-    if (!std::strcmp(argv[i], "--data") && i + 1 < argc) data = argv[++i];
-    else if (!std::strcmp(argv[i], "--reps") && i + 1 < argc) reps = std::atoi(argv[++i]);
-    else if (!std::strcmp(argv[i], "--no-middlebury")) middlebury = false;
-    else if (!std::strcmp(argv[i], "--fan2021") && i + 1 < argc) fan_dir = argv[++i];
-    else if (!std::strcmp(argv[i], "--out") && i + 1 < argc) out_dir = argv[++i];
-    else if (!std::strcmp(argv[i], "--scale") && i + 1 < argc) fan_scale = std::atof(argv[++i]);
-    else if (!std::strcmp(argv[i], "--only") && i + 1 < argc) only = argv[++i];
-    else if (!std::strcmp(argv[i], "--threads") && i + 1 < argc) threads = std::atoi(argv[++i]);
-    else if (!std::strcmp(argv[i], "--paths") && i + 1 < argc) params.num_paths = std::atoi(argv[++i]);
-    else if (!std::strcmp(argv[i], "--gpt-range") && i + 1 < argc) params.gpt_num_disparities = std::atoi(argv[++i]);
-    else if (!std::strcmp(argv[i], "--sim") && i + 1 < argc) sims.push_back(argv[++i]);
-    else if (!std::strcmp(argv[i], "--euroc") && i + 1 < argc) euroc_dir = argv[++i];
-    else if (!std::strcmp(argv[i], "--sim-step") && i + 1 < argc) sim_options.frame_step = std::atoi(argv[++i]);
-    else if (!std::strcmp(argv[i], "--sim-frames") && i + 1 < argc) sim_options.max_frames = std::atoi(argv[++i]);
-    else if (!std::strcmp(argv[i], "--sim-first") && i + 1 < argc) sim_options.first_frame = std::atoi(argv[++i]);
-    else if (!std::strcmp(argv[i], "--sim-range") && i + 1 < argc) sim_range = std::atoi(argv[++i]);
-    else if (!std::strcmp(argv[i], "--sim-bands")) sim_bands = true;
+    if (!std::strcmp(argv[i], "--data") && i + 1 < argc)
+      data = argv[++i];
+    else if (!std::strcmp(argv[i], "--reps") && i + 1 < argc)
+      reps = std::atoi(argv[++i]);
+    else if (!std::strcmp(argv[i], "--no-middlebury"))
+      middlebury = false;
+    else if (!std::strcmp(argv[i], "--fan2021") && i + 1 < argc)
+      fan_dir = argv[++i];
+    else if (!std::strcmp(argv[i], "--out") && i + 1 < argc)
+      out_dir = argv[++i];
+    else if (!std::strcmp(argv[i], "--scale") && i + 1 < argc)
+      fan_scale = std::atof(argv[++i]);
+    else if (!std::strcmp(argv[i], "--only") && i + 1 < argc)
+      only = argv[++i];
+    else if (!std::strcmp(argv[i], "--threads") && i + 1 < argc)
+      threads = std::atoi(argv[++i]);
+    else if (!std::strcmp(argv[i], "--paths") && i + 1 < argc)
+      params.num_paths = std::atoi(argv[++i]);
+    else if (!std::strcmp(argv[i], "--gpt-range") && i + 1 < argc)
+      params.gpt_num_disparities = std::atoi(argv[++i]);
+    else if (!std::strcmp(argv[i], "--sim") && i + 1 < argc)
+      sims.push_back(argv[++i]);
+    else if (!std::strcmp(argv[i], "--euroc") && i + 1 < argc)
+      euroc_dir = argv[++i];
+    else if (!std::strcmp(argv[i], "--sim-step") && i + 1 < argc)
+      sim_options.frame_step = std::atoi(argv[++i]);
+    else if (!std::strcmp(argv[i], "--sim-frames") && i + 1 < argc)
+      sim_options.max_frames = std::atoi(argv[++i]);
+    else if (!std::strcmp(argv[i], "--sim-first") && i + 1 < argc)
+      sim_options.first_frame = std::atoi(argv[++i]);
+    else if (!std::strcmp(argv[i], "--sim-range") && i + 1 < argc)
+      sim_range = std::atoi(argv[++i]);
+    else if (!std::strcmp(argv[i], "--sim-bands"))
+      sim_bands = true;
     else if (!std::strcmp(argv[i], "--set") && i + 1 < argc) {
       const std::string kv = argv[++i];
       const auto eq = kv.find('=');
@@ -305,11 +338,14 @@ int main(int argc, char** argv) {
       if (kv.substr(0, eq) != "num_paths") params.num_paths = paths;
       if (kv.substr(0, eq) != "gpt_num_disparities") params.gpt_num_disparities = range;
     } else {
-      std::fprintf(stderr, "usage: disparity_bench [--data DIR] [--reps N] [--no-middlebury] [--paths 4|8] [--gpt-range N] [--threads N] [--only METHOD]\n"
-                         "       disparity_bench --fan2021 MODEL3_DIR [--out DIR] [--scale S]\n"
-                         "       disparity_bench --euroc MAV0_DIR [--out DIR]\n"
-                         "       disparity_bench --sim SURVEY_DIR... [--sim-step N] [--sim-frames N] [--sim-first N] [--sim-range N] [--sim-bands]\n"
-                         "       (any: --set OPTION=VALUE)\n");
+      std::fprintf(stderr,
+                   "usage: disparity_bench [--data DIR] [--reps N] [--no-middlebury] [--paths 4|8] [--gpt-range N] "
+                   "[--threads N] [--only METHOD]\n"
+                   "       disparity_bench --fan2021 MODEL3_DIR [--out DIR] [--scale S]\n"
+                   "       disparity_bench --euroc MAV0_DIR [--out DIR]\n"
+                   "       disparity_bench --sim SURVEY_DIR... [--sim-step N] [--sim-frames N] [--sim-first N] "
+                   "[--sim-range N] [--sim-bands]\n"
+                   "       (any: --set OPTION=VALUE)\n");
       return 2;
     }
   }

@@ -106,9 +106,9 @@ std::string FormatStepTimes(const std::vector<BenchPairResult>& results) {
     for (const auto& r : p.methods) {
       if (r.method != "gpt-sgm" && r.method != "sgm") continue;
       const DisparityTimings& t = r.timings;
-      std::snprintf(buf, sizeof(buf), "| %s | %s | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f |\n", p.pair.c_str(),
-                    r.method.c_str(), t.road_model_ms, t.warp_ms, t.census_ms, t.aggregation_ms, t.wta_ms,
-                    t.postprocess_ms, t.transform_ms, t.total_ms);
+      std::snprintf(buf, sizeof(buf), "| %s | %s | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f |\n",
+                    p.pair.c_str(), r.method.c_str(), t.road_model_ms, t.warp_ms, t.census_ms, t.aggregation_ms,
+                    t.wta_ms, t.postprocess_ms, t.transform_ms, t.total_ms);
       s += buf;
     }
   return s;
@@ -116,17 +116,20 @@ std::string FormatStepTimes(const std::vector<BenchPairResult>& results) {
 
 std::string FormatBenchmarkTable(const std::vector<BenchPairResult>& results) {
   std::string s =
-      "| pair | method | range | wall ms/pair | pairs/s | wall / sgbm-3way | CPU ms/pair | CPU / sgbm-3way | density | bad-2 nonocc | D1 nonocc | EPE nonocc px |\n"
+      "| pair | method | range | wall ms/pair | pairs/s | wall / sgbm-3way | CPU ms/pair | CPU / sgbm-3way | density | "
+      "bad-2 nonocc | D1 nonocc | EPE nonocc px |\n"
       "|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   char buf[512];
   for (const auto& p : results)
     for (const auto& r : p.methods) {
       const BenchMethodResult* base = p.Find("sgbm-3way");
-      std::snprintf(buf, sizeof(buf), "| %s %dx%d | %s%s | %d | %.1f | %.1f | %.2f | %.1f | %.2f | %.1f %% | %.2f %% | %.2f %% | %.3f |\n",
-                    p.pair.c_str(), p.width, p.height, r.method.c_str(), r.fell_back ? " (fell back)" : "",
-                    r.num_disparities, r.median_ms, 1000.0 / r.median_ms, p.Ratio(r.method, "sgbm-3way"), r.median_cpu_ms,
-                    base && base->median_cpu_ms > 0 ? r.median_cpu_ms / base->median_cpu_ms : 0.0,
-                    100 * r.eval.nonocc.density, 100 * r.eval.nonocc.bad2, 100 * r.eval.nonocc.d1, r.eval.nonocc.epe);
+      std::snprintf(
+          buf, sizeof(buf),
+          "| %s %dx%d | %s%s | %d | %.1f | %.1f | %.2f | %.1f | %.2f | %.1f %% | %.2f %% | %.2f %% | %.3f |\n",
+          p.pair.c_str(), p.width, p.height, r.method.c_str(), r.fell_back ? " (fell back)" : "", r.num_disparities,
+          r.median_ms, 1000.0 / r.median_ms, p.Ratio(r.method, "sgbm-3way"), r.median_cpu_ms,
+          base && base->median_cpu_ms > 0 ? r.median_cpu_ms / base->median_cpu_ms : 0.0, 100 * r.eval.nonocc.density,
+          100 * r.eval.nonocc.bad2, 100 * r.eval.nonocc.d1, r.eval.nonocc.epe);
       s += buf;
     }
   return s;
@@ -175,12 +178,14 @@ std::string FormatRoadAccuracyTable(const std::vector<BenchPairResult>& results)
       if (!g.count(m)) continue;
       Acc& a = g[m];
       const DisparityMetrics road = PoolMetrics(a.road), ph = PoolMetrics(a.pothole);
-      const std::string range =
-          a.range_min == a.range_max ? std::to_string(a.range_min) : std::to_string(a.range_min) + "–" + std::to_string(a.range_max);
+      const std::string range = a.range_min == a.range_max
+                                    ? std::to_string(a.range_min)
+                                    : std::to_string(a.range_min) + "–" + std::to_string(a.range_max);
       const std::string fb = a.fell_back ? " (" + std::to_string(a.fell_back) + " fell back)" : "";
       const double cpu = Median(a.cpu);
       std::snprintf(buf, sizeof(buf),
-                    "| %s | %d | %s%s | %s | %.2f %% | %.3f %% | %s | %.2f %% | %.3f | %lld | %.1f %% | %.3f | %.1f | %.1f | %.2f |\n",
+                    "| %s | %d | %s%s | %s | %.2f %% | %.3f %% | %s | %.2f %% | %.3f | %lld | %.1f %% | %.3f | %.1f | "
+                    "%.1f | %.2f |\n",
                     survey.c_str(), frames[survey], m, fb.c_str(), range.c_str(), 100 * road.density, 100 * road.d1,
                     best_sgbm_d1 > 0 ? std::to_string(road.d1 / best_sgbm_d1).substr(0, 4).c_str() : "–",
                     100 * road.bad1, road.epe, static_cast<long long>(ph.evaluated), 100 * ph.density, ph.epe,

@@ -20,10 +20,10 @@ struct BenchMethodResult {
   /// wall time depends on their load; CPU time is close to what the work costs.
   double median_cpu_ms = 0;
   std::vector<double> cpu_ms;
-  DisparityEvaluation eval;      ///< all / non-occluded / road-mask metrics
-  int num_disparities = 0;       ///< disparities searched
-  bool fell_back = false;        ///< GPT-SGM fell back to plain SGM (no reliable road model)
-  DisparityTimings timings;      ///< our methods: step times of the last repetition
+  DisparityEvaluation eval;  ///< all / non-occluded / road-mask metrics
+  int num_disparities = 0;   ///< disparities searched
+  bool fell_back = false;    ///< GPT-SGM fell back to plain SGM (no reliable road model)
+  DisparityTimings timings;  ///< our methods: step times of the last repetition
 };
 
 /// All methods on one pair.

@@ -15,12 +15,12 @@ namespace rs {
 /// Plain fields count invalid estimates as bad (a matcher cannot win by abstaining);
 /// *_est fields are over valid estimates only.
 struct DisparityMetrics {
-  int64_t evaluated = 0;   ///< pixels with truth inside the region
-  double density = 0;      ///< valid estimates / evaluated
+  int64_t evaluated = 0;                ///< pixels with truth inside the region
+  double density = 0;                   ///< valid estimates / evaluated
   double bad1 = 0, bad2 = 0, bad3 = 0;  ///< |d - gt| > 1, 2, 3 px or invalid
-  double d1 = 0;           ///< KITTI D1: |d - gt| > 3 px and > 5 % of gt, or invalid
+  double d1 = 0;                        ///< KITTI D1: |d - gt| > 3 px and > 5 % of gt, or invalid
   double bad1_est = 0, bad2_est = 0, bad3_est = 0, d1_est = 0;  ///< same over valid estimates
-  double epe = 0;          ///< mean |d - gt| over valid estimates, px
+  double epe = 0;                                               ///< mean |d - gt| over valid estimates, px
 };
 
 /// Metrics over all truth pixels, non-occluded ones, and a caller's mask (e.g. road).

@@ -22,10 +22,10 @@ TEST(DisparityEval, Nominal) {
   const DisparityMetrics m = EvaluateDisparity(est, valid, gt);
   EXPECT_EQ(m.evaluated, 5);  // gt = 0 is unknown
   EXPECT_DOUBLE_EQ(m.density, 4.0 / 5);
-  EXPECT_DOUBLE_EQ(m.bad1, 4.0 / 5);   // errors 0.5, 1.5, 4, 4 + invalid
+  EXPECT_DOUBLE_EQ(m.bad1, 4.0 / 5);  // errors 0.5, 1.5, 4, 4 + invalid
   EXPECT_DOUBLE_EQ(m.bad2, 3.0 / 5);
   EXPECT_DOUBLE_EQ(m.bad3, 3.0 / 5);
-  EXPECT_DOUBLE_EQ(m.d1, 2.0 / 5);     // 4 px on 100 is < 5 %
+  EXPECT_DOUBLE_EQ(m.d1, 2.0 / 5);  // 4 px on 100 is < 5 %
   EXPECT_DOUBLE_EQ(m.bad2_est, 2.0 / 4);
   EXPECT_DOUBLE_EQ(m.d1_est, 1.0 / 4);
   EXPECT_DOUBLE_EQ(m.epe, (0.5 + 1.5 + 4 + 4) / 4);
@@ -38,14 +38,12 @@ TEST(DisparityEval, NonOccluded) {
   cv::Mat gl(1, 8, CV_32F, cv::Scalar(2)), gr(1, 8, CV_32F, cv::Scalar(2));
   gr.at<float>(0, 3) = 5;  // inconsistent for left pixel 5
   const cv::Mat m = NonOccludedMask(gl, gr);
-  EXPECT_EQ(m.at<uint8_t>(0, 0), 0);    // u - d < 0
+  EXPECT_EQ(m.at<uint8_t>(0, 0), 0);  // u - d < 0
   EXPECT_EQ(m.at<uint8_t>(0, 2), 255);
   EXPECT_EQ(m.at<uint8_t>(0, 5), 0);
 }
 
-TEST(DisparityEval, MissingMiddlebury) {
-  EXPECT_THROW(LoadMiddlebury("/nonexistent"), InputError);
-}
+TEST(DisparityEval, MissingMiddlebury) { EXPECT_THROW(LoadMiddlebury("/nonexistent"), InputError); }
 
 // Our SGM must beat OpenCV StereoSGBM on bad-2 (non-occluded, invalid = bad) on every pair.
 TEST(DisparityEval, MiddleburyBeatsStereoSgbm) {

@@ -129,9 +129,9 @@ std::vector<StereoPairWithTruth> LoadSimulatedSurvey(const fs::path& dir, const 
   std::sort(lefts.begin(), lefts.end());
   const Trajectory traj = ReadTrajectory(dir / "truth/trajectory.tum", TrajectoryFormat::kTum);
   if (traj.poses.size() != lefts.size())
-    throw InputError(InputLocation::File((dir / "truth/trajectory.tum").string()),
-                     "has " + std::to_string(traj.poses.size()) + " poses for " + std::to_string(lefts.size()) +
-                         " frames");
+    throw InputError(
+        InputLocation::File((dir / "truth/trajectory.tum").string()),
+        "has " + std::to_string(traj.poses.size()) + " poses for " + std::to_string(lefts.size()) + " frames");
 
   std::vector<StereoPairWithTruth> out;
   const std::string survey = fs::absolute(dir).lexically_normal().filename().string();
@@ -258,7 +258,9 @@ RoadErrorStats MeasureRoadErrors(const StereoPairWithTruth& p, const cv::Mat& di
       if (a > 0.5) ++s.road_over_05;
       if (a > 1) ++s.road_over_1;
       if (a <= 3) s.road_signed_sum += e, ++s.road_within_3;
-      const int bin = e < -1 ? 0 : e >= 1 ? RoadErrorStats::kBins + 1 : 1 + std::min(RoadErrorStats::kBins - 1, static_cast<int>((e + 1) / 0.05));
+      const int bin = e < -1   ? 0
+                      : e >= 1 ? RoadErrorStats::kBins + 1
+                               : 1 + std::min(RoadErrorStats::kBins - 1, static_cast<int>((e + 1) / 0.05));
       ++s.histogram[bin];
     }
   }

@@ -26,9 +26,9 @@ namespace rs {
 
 /// Which frames to load and how the road region is cut.
 struct SimulatedPairOptions {
-  int first_frame = 0;   ///< index of the first frame (sorted file names of left/)
-  int frame_step = 1;    ///< every n-th frame from first_frame
-  int max_frames = 0;    ///< at most this many frames (0 = all)
+  int first_frame = 0;  ///< index of the first frame (sorted file names of left/)
+  int frame_step = 1;   ///< every n-th frame from first_frame
+  int max_frames = 0;   ///< at most this many frames (0 = all)
   /// Pixels nearer the kerb line than this are not road (the 1 cm kerb ramp, lane edge), m.
   double road_edge_margin_m = 0.05;
   /// Largest |height - intact road height| of a road pixel, m; the truth disparity's 1/256 px
@@ -51,24 +51,24 @@ std::vector<StereoPairWithTruth> LoadSimulatedSurvey(const std::filesystem::path
 /// depth, so the shares of road pixels beyond 0.25 and 0.5 px are what the damage stage feels.
 /// Additive over pairs (Add); ratios from the accessors.
 struct RoadErrorStats {
-  static constexpr int kBins = 40;             ///< signed-error histogram: 0.05 px bins over [-1, 1)
-  int64_t road = 0, road_valid = 0;            ///< road pixels with truth; with a valid estimate
+  static constexpr int kBins = 40;                               ///< signed-error histogram: 0.05 px bins over [-1, 1)
+  int64_t road = 0, road_valid = 0;                              ///< road pixels with truth; with a valid estimate
   int64_t road_over_025 = 0, road_over_05 = 0, road_over_1 = 0;  ///< valid road pixels with |err| > 0.25, 0.5, 1 px
   double road_abs_sum = 0, road_signed_sum = 0;  ///< sums of |err| and err over valid road pixels with |err| <= 3 px
-  int64_t road_within_3 = 0;                   ///< valid road pixels with |err| <= 3 px (the signed mean's count)
+  int64_t road_within_3 = 0;                     ///< valid road pixels with |err| <= 3 px (the signed mean's count)
   /// Valid road pixels by signed error: [0] below -1 px, [1 + b] in [-1 + 0.05 b, -0.95 + 0.05 b),
   /// [kBins + 1] at or above 1 px.
   std::array<int64_t, kBins + 2> histogram{};
   /// Valid road pixels with |err| > 0.25 px and all valid road pixels in the left, middle and
   /// right third of the image columns (camber shows in the outer thirds).
   std::array<int64_t, 3> third_over_025{}, third_valid{};
-  int64_t pothole = 0, pothole_valid = 0;      ///< pothole pixels with truth; with a valid estimate
-  double pothole_abs_sum = 0;                  ///< sum of |err| over valid pothole pixels
+  int64_t pothole = 0, pothole_valid = 0;  ///< pothole pixels with truth; with a valid estimate
+  double pothole_abs_sum = 0;              ///< sum of |err| over valid pothole pixels
 
   void Add(const RoadErrorStats& other);
   double RoadDensity() const { return road ? double(road_valid) / double(road) : 0; }
-  double RoadEpe() const;          ///< mean |err| over all valid road pixels, px
-  double RoadSignedMean() const;   ///< mean err over valid road pixels with |err| <= 3 px, px
+  double RoadEpe() const;                           ///< mean |err| over all valid road pixels, px
+  double RoadSignedMean() const;                    ///< mean err over valid road pixels with |err| <= 3 px, px
   double RoadShareOver(double threshold_px) const;  ///< 0.25, 0.5 or 1: share of valid road pixels
   double PotholeMae() const { return pothole_valid ? pothole_abs_sum / double(pothole_valid) : 0; }
   /// Signed-error quantile q in (0, 1) from the histogram (linear inside a bin; clamped to [-1, 1]), px.
@@ -85,12 +85,12 @@ struct RoadErrorStats {
 /// few rows sees as horizontal stripes. Additive over pairs (Add).
 struct RoadBandStats {
   static constexpr int kMinRowPixels = 30, kStripeHalf = 4;
-  int row_begin = 0, row_end = 0;               ///< rows [row_begin, row_end)
-  int64_t road = 0, valid = 0;                  ///< road pixels with truth; with a valid estimate
-  int64_t within_1 = 0;                         ///< valid road pixels with |err| <= 1 px
+  int row_begin = 0, row_end = 0;                  ///< rows [row_begin, row_end)
+  int64_t road = 0, valid = 0;                     ///< road pixels with truth; with a valid estimate
+  int64_t within_1 = 0;                            ///< valid road pixels with |err| <= 1 px
   double abs_sum = 0, signed_sum = 0, gt_sum = 0;  ///< over the within_1 pixels
-  double stripe_sq_sum = 0;                     ///< sum over rows of the squared row-mean deviation
-  int64_t stripe_rows = 0;                      ///< rows in stripe_sq_sum
+  double stripe_sq_sum = 0;                        ///< sum over rows of the squared row-mean deviation
+  int64_t stripe_rows = 0;                         ///< rows in stripe_sq_sum
 
   void Add(const RoadBandStats& other);
   double Epe() const { return within_1 ? abs_sum / double(within_1) : 0; }  ///< mean |err| (|err| <= 1), px

@@ -65,10 +65,11 @@ Scores Score(const std::vector<StereoPairWithTruth>& pairs) {
   std::printf("%s\n", errors.Format().c_str());
   const DisparityMetrics three_way = PoolMetrics(sgbm[1]);
   if (three_way.d1 < s.sgbm_road.d1) s.sgbm_road = three_way;
-  std::printf("road: %lld px, density %.2f %%, D1 %.3f %% (SGBM best %.3f %%), EPE %.3f px; potholes: %lld px, "
-              "density %.1f %%, MAE %.3f px\n",
-              static_cast<long long>(s.road.evaluated), 100 * s.road.density, 100 * s.road.d1, 100 * s.sgbm_road.d1,
-              s.road.epe, static_cast<long long>(s.pothole.evaluated), 100 * s.pothole.density, s.pothole.epe);
+  std::printf(
+      "road: %lld px, density %.2f %%, D1 %.3f %% (SGBM best %.3f %%), EPE %.3f px; potholes: %lld px, "
+      "density %.1f %%, MAE %.3f px\n",
+      static_cast<long long>(s.road.evaluated), 100 * s.road.density, 100 * s.road.d1, 100 * s.sgbm_road.d1, s.road.epe,
+      static_cast<long long>(s.pothole.evaluated), 100 * s.pothole.density, s.pothole.epe);
   return s;
 }
 
@@ -137,9 +138,7 @@ TEST(SimDisparityEval, DroneLowTargets) {
   EXPECT_NEAR(s.errors.RoadSignedMean(), 0.0, 0.02);
 }
 
-TEST(SimDisparityEval, CarTargets) {
-  ExpectAccuracyTargets(Score(LoadSimulatedSurvey(Render("car", 2, 1.0))), 500);
-}
+TEST(SimDisparityEval, CarTargets) { ExpectAccuracyTargets(Score(LoadSimulatedSurvey(Render("car", 2, 1.0))), 500); }
 
 TEST(SimDisparityEval, ObstaclesTargets) {
   ExpectAccuracyTargets(Score(LoadSimulatedSurvey(Render("obstacles", 2, 1.0))), 2000);

@@ -14,11 +14,13 @@
 
 namespace {
 
-// The disparity offset estimated from the final map and what the self-calibration applied (stereo_slam.h SlamStatistics).
+// The disparity offset estimated from the final map and what the self-calibration applied (stereo_slam.h
+// SlamStatistics).
 std::string SelfCalibration(const rs::SlamRunReport& r) {
   const rs::SlamStatistics& s = r.result.stats;
-  return fmt::format("  disparity offset implied by the keyframes' motion {:+.3f} px +- {:.3f} ({} samples), applied {:+.3f} px",
-                     s.disparity_offset_px, s.disparity_offset_sigma_px, s.disparity_offset_samples, s.disparity_offset_applied_px);
+  return fmt::format(
+      "  disparity offset implied by the keyframes' motion {:+.3f} px +- {:.3f} ({} samples), applied {:+.3f} px",
+      s.disparity_offset_px, s.disparity_offset_sigma_px, s.disparity_offset_samples, s.disparity_offset_applied_px);
 }
 
 }  // namespace
@@ -32,15 +34,23 @@ int main(int argc, char** argv) {
   fs::path sim_dir;  // default: <tmp>/slam_bench_<preset>[_<frames>]
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    if (a == "--data" && i + 1 < argc) data = argv[++i];
-    else if (a == "--sim-frames" && i + 1 < argc) sim_frames = std::atoi(argv[++i]);
-    else if (a == "--sim-dir" && i + 1 < argc) sim_dir = argv[++i];
-    else if (a == "--sim-preset" && i + 1 < argc) sim_preset = argv[++i];
-    else if (a == "--no-sim") sim = false;
-    else if (a == "--only-sim") only_sim = true;
-    else if (a == "--only-kitti") only_kitti = true, sim = false;  // sweeps: the KITTI clip with the options as given
+    if (a == "--data" && i + 1 < argc)
+      data = argv[++i];
+    else if (a == "--sim-frames" && i + 1 < argc)
+      sim_frames = std::atoi(argv[++i]);
+    else if (a == "--sim-dir" && i + 1 < argc)
+      sim_dir = argv[++i];
+    else if (a == "--sim-preset" && i + 1 < argc)
+      sim_preset = argv[++i];
+    else if (a == "--no-sim")
+      sim = false;
+    else if (a == "--only-sim")
+      only_sim = true;
+    else if (a == "--only-kitti")
+      only_kitti = true, sim = false;  // sweeps: the KITTI clip with the options as given
     else {
-      std::cerr << "usage: slam_bench [--data DIR] [--sim-preset NAME] [--sim-frames N] [--sim-dir DIR] [--no-sim] [--only-sim] [--only-kitti]\n";
+      std::cerr << "usage: slam_bench [--data DIR] [--sim-preset NAME] [--sim-frames N] [--sim-dir DIR] [--no-sim] "
+                   "[--only-sim] [--only-kitti]\n";
       return 2;
     }
   }
@@ -89,27 +99,32 @@ int main(int argc, char** argv) {
           o.global_ba_frames = false;
           o.local_ba_fixed_size = true;
           const rs::SlamRunReport a = rs::RunKittiOdometry(kitti, o);
-          std::cout << a.Summary("KITTI 06 clip, KITTI configuration (2000 features, triangulation 5, local BA 5 "
-                                 "iterations fixed-size, keyframe gap 5, keyframe-only global BA)")
-                    << "\n" << SelfCalibration(a) << "\n";
+          std::cout << a.Summary(
+                           "KITTI 06 clip, KITTI configuration (2000 features, triangulation 5, local BA 5 "
+                           "iterations fixed-size, keyframe gap 5, keyframe-only global BA)")
+                    << "\n"
+                    << SelfCalibration(a) << "\n";
           if (fs::exists(raw)) {
             const rs::LidarDisparityCheck c = rs::CheckDisparityAgainstLidar(raw, o);
-            std::cout << fmt::format("KITTI raw 0023 stereo vs LiDAR ({} features): {} matches, median disparity deficit "
-                                     "{:.3f} px, median depth ratio stereo/LiDAR {:.4f}\n",
-                                     o.features, c.samples, c.median_deficit_px, c.median_depth_ratio);
+            std::cout << fmt::format(
+                "KITTI raw 0023 stereo vs LiDAR ({} features): {} matches, median disparity deficit "
+                "{:.3f} px, median depth ratio stereo/LiDAR {:.4f}\n",
+                o.features, c.samples, c.median_deficit_px, c.median_depth_ratio);
           }
         }
         if (std::getenv("SLAM_BENCH_VERBOSE"))
           for (const auto& f : r.frames)
             std::cout << "  frame " << f.index << " " << rs::ToString(f.status) << " feat " << f.features << " stereo "
                       << f.stereo_features << " inliers " << f.inliers << (f.keyframe ? " KF" : "") << " err "
-                      << r.ate.errors_m[f.index] << " est t " << r.result.frames.poses[f.index].T_world_frame.translation().transpose()
-                      << " rot " << Eigen::AngleAxisd(r.result.frames.poses[f.index].T_world_frame.linear()).angle() * 57.3 << "\n";
+                      << r.ate.errors_m[f.index] << " est t "
+                      << r.result.frames.poses[f.index].T_world_frame.translation().transpose() << " rot "
+                      << Eigen::AngleAxisd(r.result.frames.poses[f.index].T_world_frame.linear()).angle() * 57.3
+                      << "\n";
       }
       const fs::path euroc = fs::path(data) / "euroc_v101_micro";
       if (fs::exists(euroc) && !only_kitti) {
-        const rs::SlamRunReport e =
-            rs::RunEuroc(euroc / "tests/data/MicroEurocDataset", euroc / "open_vins_gt/ov_data/euroc_mav/V1_01_easy.txt", opt);
+        const rs::SlamRunReport e = rs::RunEuroc(euroc / "tests/data/MicroEurocDataset",
+                                                 euroc / "open_vins_gt/ov_data/euroc_mav/V1_01_easy.txt", opt);
         std::cout << e.Summary("EuRoC V1_01 micro") << "\n" << SelfCalibration(e) << "\n";
       }
     }
@@ -119,7 +134,8 @@ int main(int argc, char** argv) {
         if (sim_preset == "loop" && sim_frames > 0 && sim_frames != so.num_frames) {
           // Shortened loop: a shorter road flown out and back in the same time per metre.
           const double flight_s = sim_frames / so.frame_rate_hz;
-          so.road_length_m = 2 * so.start_s_m + so.speed_m_s * (flight_s - so.turn_duration_s) / 2;  // turn at road - start
+          so.road_length_m =
+              2 * so.start_s_m + so.speed_m_s * (flight_s - so.turn_duration_s) / 2;  // turn at road - start
           so.num_frames = sim_frames;
         }
         std::cout << rs::Simulate(so, sim_dir).BriefReport() << "\n";
@@ -132,9 +148,11 @@ int main(int argc, char** argv) {
                   << SelfCalibration(r) << "\n";
         if (std::getenv("SLAM_BENCH_VERBOSE"))
           for (size_t i = 0; i < r.rot_rel_first_err.size(); ++i)
-            std::cout << fmt::format("  pair {} true rotation since first {:.3f} deg, error (rotation vector, deg) {:+.3f} {:+.3f} {:+.3f}\n",
-                                     i, r.gt_rel_first_deg[i], r.rot_rel_first_err[i].x(), r.rot_rel_first_err[i].y(),
-                                     r.rot_rel_first_err[i].z());
+            std::cout << fmt::format(
+                "  pair {} true rotation since first {:.3f} deg, error (rotation vector, deg) {:+.3f} {:+.3f} "
+                "{:+.3f}\n",
+                i, r.gt_rel_first_deg[i], r.rot_rel_first_err[i].x(), r.rot_rel_first_err[i].y(),
+                r.rot_rel_first_err[i].z());
         for (const auto& l : r.result.loops)
           std::cout << "  loop kf " << l.keyframe << " -> " << l.loop_keyframe << ", " << l.inliers << " inliers"
                     << (l.by_prior ? " (prior candidate)" : " (appearance)") << "\n";

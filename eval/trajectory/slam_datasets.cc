@@ -67,7 +67,8 @@ void MeasureResiduals(const StereoCalibration& calib, SlamRunReport* rep) {
       if (pc.z() <= 0) continue;
       const double u = cam.f_px * pc.x() / pc.z() + cam.cx_px, v = cam.f_px * pc.y() / pc.z() + cam.cy_px;
       uv.push_back(std::hypot(kp.pt.x - u, kp.pt.y - v));
-      if (kf.features.u_right[f] >= 0) ur.push_back(std::abs(kf.features.u_right[f] - (u - cam.f_px * cam.baseline_m / pc.z())));
+      if (kf.features.u_right[f] >= 0)
+        ur.push_back(std::abs(kf.features.u_right[f] - (u - cam.f_px * cam.baseline_m / pc.z())));
     }
   }
   auto quantile = [](std::vector<double> v, double q) {
@@ -131,7 +132,9 @@ SlamRunReport RunSource(const StereoSource& source, const StereoCalibration& rec
 cv::Mat ReadNpzFloatImage(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
   const std::string zip((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  auto u16 = [&](size_t o) { return static_cast<uint32_t>(static_cast<uint8_t>(zip[o]) | static_cast<uint8_t>(zip[o + 1]) << 8); };
+  auto u16 = [&](size_t o) {
+    return static_cast<uint32_t>(static_cast<uint8_t>(zip[o]) | static_cast<uint8_t>(zip[o + 1]) << 8);
+  };
   auto u32 = [&](size_t o) { return u16(o) | u16(o + 2) << 16; };
   const std::string where = path.string();
   if (zip.size() < 30 || u32(0) != 0x04034b50) throw std::runtime_error(where + ": not a zip (.npz) file");
@@ -158,8 +161,9 @@ cv::Mat ReadNpzFloatImage(const std::filesystem::path& path) {
   // .npy v1/v2: magic, version, header length, then a Python dict literal.
   if (npy.size() < 12 || npy.compare(0, 6, "\x93NUMPY") != 0) throw std::runtime_error(where + ": member is not .npy");
   const bool v1 = npy[6] == 1;
-  const size_t hlen = v1 ? (static_cast<uint8_t>(npy[8]) | static_cast<uint8_t>(npy[9]) << 8)
-                         : (static_cast<uint8_t>(npy[8]) | static_cast<uint8_t>(npy[9]) << 8 | static_cast<uint8_t>(npy[10]) << 16);
+  const size_t hlen =
+      v1 ? (static_cast<uint8_t>(npy[8]) | static_cast<uint8_t>(npy[9]) << 8)
+         : (static_cast<uint8_t>(npy[8]) | static_cast<uint8_t>(npy[9]) << 8 | static_cast<uint8_t>(npy[10]) << 16);
   const size_t start = (v1 ? 10 : 12) + hlen;
   const std::string header = npy.substr(v1 ? 10 : 12, hlen);
   int rows = 0, cols = 0;
@@ -194,10 +198,12 @@ LidarDisparityCheck CheckDisparityAgainstLidar(const std::filesystem::path& driv
     if (!std::filesystem::exists(npz)) continue;
     const cv::Mat lidar = ReadNpzFloatImage(npz);
     const StereoFeatures f = ExtractStereoFeatures(LoadGray8(fr.left), LoadGray8(fr.right), cam, options, pyr);
-    if (lidar.rows != cam.height || lidar.cols != cam.width) throw std::runtime_error(npz.string() + ": size differs from the images");
+    if (lidar.rows != cam.height || lidar.cols != cam.width)
+      throw std::runtime_error(npz.string() + ": size differs from the images");
     for (size_t i = 0; i < f.size(); ++i) {
       if (f.depth_m[i] <= 0) continue;
-      const int x = static_cast<int>(std::lround(f.keypoints[i].pt.x)), y = static_cast<int>(std::lround(f.keypoints[i].pt.y));
+      const int x = static_cast<int>(std::lround(f.keypoints[i].pt.x)),
+                y = static_cast<int>(std::lround(f.keypoints[i].pt.y));
       // LiDAR samples around the corner; a spread above 5 % means a depth edge (LiDAR sees past it).
       std::vector<double> z;
       for (int dy = -2; dy <= 2; ++dy)
@@ -227,16 +233,18 @@ std::string SlamRunReport::Summary(const std::string& name) const {
   return fmt::format(
       "{}: {}x{}, {}\n  ATE RMSE (SE3) {:.4f} m ({:.3f} % of {:.1f} m path), max {:.4f} m, rot RMSE {:.3f} deg "
       "(aligned; relative to the first frame, unaligned: {:.3f} deg)\n"
-      "  wall {:.2f} s = {:.1f} frames/s (local mapping {:.2f} s, finish {:.2f} s), CPU {:.2f} s = {:.1f} frames/CPU-s, "
+      "  wall {:.2f} s = {:.1f} frames/s (local mapping {:.2f} s, finish {:.2f} s), CPU {:.2f} s = {:.1f} "
+      "frames/CPU-s, "
       "two free cores (from thread CPU) {:.2f} s = {:.1f} frames/s, image loading {:.2f} s\n"
-      "  CPU per frame: features {:.1f} ms, tracking + local mapping {:.1f} ms, finish {:.1f} ms\n  level-0 reprojection residual median {:.3f} px (p90 {:.3f}), right-u median {:.3f} px",
+      "  CPU per frame: features {:.1f} ms, tracking + local mapping {:.1f} ms, finish {:.1f} ms\n  level-0 "
+      "reprojection residual median {:.3f} px (p90 {:.3f}), right-u median {:.3f} px",
       name, width, height, result.stats.BriefReport(), ate.translation_m.rmse,
       path_length_m > 0 ? 100 * ate.translation_m.rmse / path_length_m : 0.0, path_length_m, ate.translation_m.max,
-      ate.rotation_deg.rmse, rot_rel_first_rmse_deg, wall_s, frames / std::max(1e-9, wall_s), result.stats.local_mapping_s,
-      result.stats.finish_s, cpu_s, frames / std::max(1e-9, cpu_s), two_core_wall_s,
+      ate.rotation_deg.rmse, rot_rel_first_rmse_deg, wall_s, frames / std::max(1e-9, wall_s),
+      result.stats.local_mapping_s, result.stats.finish_s, cpu_s, frames / std::max(1e-9, cpu_s), two_core_wall_s,
       two_core_wall_s > 0 ? frames / two_core_wall_s : 0.0, load_s, 1e3 * features_cpu_s / std::max(1, frames),
-      1e3 * track_cpu_s / std::max(1, frames), 1e3 * finish_cpu_s / std::max(1, frames), reproj_median_px, reproj_p90_px,
-      reproj_right_median_px);
+      1e3 * track_cpu_s / std::max(1, frames), 1e3 * finish_cpu_s / std::max(1, frames), reproj_median_px,
+      reproj_p90_px, reproj_right_median_px);
 }
 
 SlamRunReport RunKittiOdometry(const std::filesystem::path& folder, const SlamOptions& options, int max_frames) {

@@ -14,21 +14,22 @@ namespace rs {
 struct SlamRunReport {
   SlamResult result;
   std::vector<FrameResult> frames;  ///< what Track returned per frame
-  AteResult ate;              ///< SE(3)-aligned ATE of the frame trajectory (camera frames)
-  double path_length_m = 0;   ///< length of the true camera path
+  AteResult ate;                    ///< SE(3)-aligned ATE of the frame trajectory (camera frames)
+  double path_length_m = 0;         ///< length of the true camera path
   /// RMSE of the rotation error relative to the first pair, angle((R_gt0^T R_gt)^T (R_est0^T R_est)), deg:
   /// no alignment involved (the aligned rotation RMSE is ill-posed on straight or static paths, where
   /// the roll about the path is unobservable from positions), so a camera/truth frame mix-up shows here.
   double rot_rel_first_rmse_deg = 0;
-  std::vector<Eigen::Vector3d> rot_rel_first_err;  ///< per pair: that error as a rotation vector (truth camera frame), deg
-  std::vector<double> gt_rel_first_deg;            ///< per pair: the true rotation since the first pair, deg
-  double wall_s = 0;          ///< Track + Finish wall time (image loading and rectification excluded)
-  double cpu_s = 0;           ///< process CPU time over the same span (all threads)
+  std::vector<Eigen::Vector3d>
+      rot_rel_first_err;                 ///< per pair: that error as a rotation vector (truth camera frame), deg
+  std::vector<double> gt_rel_first_deg;  ///< per pair: the true rotation since the first pair, deg
+  double wall_s = 0;                     ///< Track + Finish wall time (image loading and rectification excluded)
+  double cpu_s = 0;                      ///< process CPU time over the same span (all threads)
   /// Wall time the same work implies on two free cores (pipelined runs, SlamPipelineTimes): per
   /// step max(longest task, CPU / 2) from per-thread CPU times, plus Finish's CPU; 0 if not pipelined.
   double two_core_wall_s = 0;
   double features_cpu_s = 0, track_cpu_s = 0, finish_cpu_s = 0;  ///< its parts (pipelined runs): thread CPU, s
-  double load_s = 0;          ///< image loading (+ rectification) wall time
+  double load_s = 0;                                             ///< image loading (+ rectification) wall time
   /// Median / 90th percentile of the final map's level-0 reprojection residuals (|(du, dv)| and
   /// |du_right|, px) with the final keyframe poses: how consistent keypoints, depths and poses are.
   double reproj_median_px = 0, reproj_p90_px = 0, reproj_right_median_px = 0;
@@ -50,9 +51,9 @@ SlamRunReport RunSimulated(const std::filesystem::path& folder, const SlamOption
 /// Disparities of the stereo front end against LiDAR depth (KITTI raw drive folder with
 /// proj_depth/velodyne/image_02/*.npz, LiDAR depth projected into the left camera).
 struct LidarDisparityCheck {
-  int samples = 0;                 ///< stereo features with a consistent LiDAR depth (5x5 px, spread < 5 %)
-  double median_deficit_px = 0;    ///< median of bf / z_lidar - measured disparity, px
-  double median_depth_ratio = 1;   ///< median of stereo depth / LiDAR depth
+  int samples = 0;                ///< stereo features with a consistent LiDAR depth (5x5 px, spread < 5 %)
+  double median_deficit_px = 0;   ///< median of bf / z_lidar - measured disparity, px
+  double median_depth_ratio = 1;  ///< median of stereo depth / LiDAR depth
 };
 /// Runs ExtractStereoFeatures (options as given) over every frame of the drive and compares.
 LidarDisparityCheck CheckDisparityAgainstLidar(const std::filesystem::path& drive, const SlamOptions& options);

@@ -40,7 +40,8 @@ size_t Nearest(const std::vector<int64_t>& t, int64_t query) {
 }
 
 uint64_t AbsDiff(int64_t a, int64_t b) {
-  return a >= b ? static_cast<uint64_t>(a) - static_cast<uint64_t>(b) : static_cast<uint64_t>(b) - static_cast<uint64_t>(a);
+  return a >= b ? static_cast<uint64_t>(a) - static_cast<uint64_t>(b)
+                : static_cast<uint64_t>(b) - static_cast<uint64_t>(a);
 }
 
 void RequireTimes(const Trajectory& t) {
@@ -68,10 +69,10 @@ const char* TrajectoryAlignmentName(TrajectoryAlignment alignment) {
   return "?";
 }
 
-Sim3Transform UmeyamaAlignment(const Eigen::Matrix3Xd& est, const Eigen::Matrix3Xd& gt,
-                               TrajectoryAlignment alignment) {
+Sim3Transform UmeyamaAlignment(const Eigen::Matrix3Xd& est, const Eigen::Matrix3Xd& gt, TrajectoryAlignment alignment) {
   if (est.cols() != gt.cols()) {
-    throw std::invalid_argument(fmt::format("alignment: {} estimate vs {} ground-truth positions", est.cols(), gt.cols()));
+    throw std::invalid_argument(
+        fmt::format("alignment: {} estimate vs {} ground-truth positions", est.cols(), gt.cols()));
   }
   if (alignment == TrajectoryAlignment::kNone) return {};
   const Eigen::Index n = est.cols();
@@ -277,7 +278,8 @@ Eigen::Isometry3d Delta(const Eigen::Isometry3d& Ti, const Eigen::Isometry3d& Tj
 RpeResult ComputeRpe(const PosePairs& pairs, const RelativeDelta& delta, double scale) {
   RpeResult r;
   for (const auto& [i, j] : RelativePairs(pairs, delta)) {
-    const Eigen::Isometry3d E = Delta(pairs.gt[i], pairs.gt[j], 1.0).inverse() * Delta(pairs.est[i], pairs.est[j], scale);
+    const Eigen::Isometry3d E =
+        Delta(pairs.gt[i], pairs.gt[j], 1.0).inverse() * Delta(pairs.est[i], pairs.est[j], scale);
     r.translation_m.push_back(E.translation().norm());
     r.rotation_deg.push_back(RotationAngleRad(E.linear()) * kRadToDeg);
   }
@@ -291,16 +293,19 @@ KittiOdometryResult ComputeKittiOdometry(const PosePairs& pairs, const KittiOdom
     throw std::invalid_argument(fmt::format("kitti step_frames = {} violates step_frames >= 1", options.step_frames));
   }
   for (double L : options.lengths_m) {
-    if (!(L > 0) || !std::isfinite(L)) throw std::invalid_argument(fmt::format("kitti length {} m violates length > 0", L));
+    if (!(L > 0) || !std::isfinite(L))
+      throw std::invalid_argument(fmt::format("kitti length {} m violates length > 0", L));
   }
   const size_t n = pairs.size();
   std::vector<double> dist(n, 0.0);
-  for (size_t k = 1; k < n; ++k) dist[k] = dist[k - 1] + (pairs.gt[k].translation() - pairs.gt[k - 1].translation()).norm();
+  for (size_t k = 1; k < n; ++k)
+    dist[k] = dist[k - 1] + (pairs.gt[k].translation() - pairs.gt[k - 1].translation()).norm();
   const double total_m = n ? dist.back() : 0.0;
 
   KittiOdometryResult r;
   r.used_lengths_m = options.lengths_m;
-  const bool any_fits = std::any_of(r.used_lengths_m.begin(), r.used_lengths_m.end(), [&](double L) { return L < total_m; });
+  const bool any_fits =
+      std::any_of(r.used_lengths_m.begin(), r.used_lengths_m.end(), [&](double L) { return L < total_m; });
   if (!any_fits && options.shorten_for_short_sequences && total_m > 0) {
     r.used_lengths_m.clear();
     for (int k = 1; k <= 8; ++k) r.used_lengths_m.push_back(total_m * k / 10.0);

@@ -37,14 +37,13 @@ struct Sim3Transform {
 /// sum_i |gt_i - (s R est_i + t)|^2 with s = 1 for kSE3, identity for kNone.
 /// Throws std::invalid_argument for fewer than 3 points, different sizes, or positions that do not
 /// span a plane (collinear or coincident: the rotation about the line is undetermined).
-Sim3Transform UmeyamaAlignment(const Eigen::Matrix3Xd& est, const Eigen::Matrix3Xd& gt,
-                               TrajectoryAlignment alignment);
+Sim3Transform UmeyamaAlignment(const Eigen::Matrix3Xd& est, const Eigen::Matrix3Xd& gt, TrajectoryAlignment alignment);
 
 /// The estimate and ground-truth poses at the same instants, in order.
 struct PosePairs {
-  std::vector<int64_t> t_ns;                 ///< the estimate's time (or index) of each pair
-  std::vector<size_t> est_index, gt_index;   ///< where each pair came from
-  std::vector<Eigen::Isometry3d> est, gt;    ///< T_world_frame of both
+  std::vector<int64_t> t_ns;                ///< the estimate's time (or index) of each pair
+  std::vector<size_t> est_index, gt_index;  ///< where each pair came from
+  std::vector<Eigen::Isometry3d> est, gt;   ///< T_world_frame of both
   size_t size() const { return est.size(); }
 };
 
@@ -70,10 +69,10 @@ ErrorStats ComputeErrorStats(std::vector<double> errors);
 
 /// Absolute trajectory error after alignment.
 struct AteResult {
-  Sim3Transform alignment;          ///< fitted estimate -> ground truth transform
-  std::vector<double> errors_m;     ///< |gt_i - S(est_i)| per pair
-  ErrorStats translation_m;         ///< stats of errors_m
-  ErrorStats rotation_deg;          ///< angle of R_gt_i^T * R * R_est_i per pair
+  Sim3Transform alignment;       ///< fitted estimate -> ground truth transform
+  std::vector<double> errors_m;  ///< |gt_i - S(est_i)| per pair
+  ErrorStats translation_m;      ///< stats of errors_m
+  ErrorStats rotation_deg;       ///< angle of R_gt_i^T * R * R_est_i per pair
 };
 AteResult ComputeAte(const PosePairs& pairs, TrajectoryAlignment alignment);
 
@@ -115,15 +114,15 @@ struct KittiOdometryOptions {
 };
 struct KittiOdometryResult {
   std::vector<double> used_lengths_m;
-  size_t segments = 0;                   ///< 0: none fits, the averages are meaningless
-  double t_err_percent = 0;              ///< mean over segments of |trans(E)| / L * 100
-  double r_err_deg_per_100m = 0;         ///< mean over segments of angle(E) / L in deg per 100 m
+  size_t segments = 0;            ///< 0: none fits, the averages are meaningless
+  double t_err_percent = 0;       ///< mean over segments of |trans(E)| / L * 100
+  double r_err_deg_per_100m = 0;  ///< mean over segments of angle(E) / L in deg per 100 m
   struct PerLength {
     double length_m = 0;
     size_t segments = 0;
     double t_err_percent = 0, r_err_deg_per_100m = 0;
   };
-  std::vector<PerLength> per_length;     ///< lengths with at least one segment
+  std::vector<PerLength> per_length;  ///< lengths with at least one segment
 };
 KittiOdometryResult ComputeKittiOdometry(const PosePairs& pairs, const KittiOdometryOptions& options,
                                          double scale = 1.0);

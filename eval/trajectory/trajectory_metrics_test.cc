@@ -19,13 +19,11 @@ namespace {
 
 namespace fs = std::filesystem;
 
-fs::path EvoData() {
-  return rs::test::DataRoot() / "kitti_euroc_trajectories" / "evo" / "test" / "data";
-}
+fs::path EvoData() { return rs::test::DataRoot() / "kitti_euroc_trajectories" / "evo" / "test" / "data"; }
 
-#define SKIP_WITHOUT_EVO_DATA()                                                                   \
-  if (!fs::exists(EvoData())) GTEST_SKIP() << "real trajectories not found at " << EvoData()    \
-                                           << " (set ROADSURVEY_DATA to the shared data folder)"
+#define SKIP_WITHOUT_EVO_DATA() \
+  if (!fs::exists(EvoData()))   \
+  GTEST_SKIP() << "real trajectories not found at " << EvoData() << " (set ROADSURVEY_DATA to the shared data folder)"
 
 Eigen::Matrix3d Rz(double a) { return Eigen::AngleAxisd(a, Eigen::Vector3d::UnitZ()).toRotationMatrix(); }
 
@@ -44,21 +42,17 @@ Eigen::Isometry3d Pose(const Eigen::Matrix3d& R, const Eigen::Vector3d& p) {
 }
 
 const Trajectory& Kitti00Gt() {
-  static const Trajectory t = ReadTrajectory(EvoData() / "KITTI_00_gt.txt", TrajectoryFormat::kKitti,
-                                             EvoData() / "KITTI_00_gt_times.txt");
+  static const Trajectory t =
+      ReadTrajectory(EvoData() / "KITTI_00_gt.txt", TrajectoryFormat::kKitti, EvoData() / "KITTI_00_gt_times.txt");
   return t;
 }
 
 TEST(UmeyamaAlignment, HandMade) {
   // Four points, mapped by a 90 degree yaw, scale 2 and a shift: the fit must be exact.
   Eigen::Matrix3Xd est(3, 4), gt(3, 4);
-  est << 0, 1, 0, 0,
-         0, 0, 2, 0,
-         0, 0, 0, 3;
+  est << 0, 1, 0, 0, 0, 0, 2, 0, 0, 0, 0, 3;
   // By hand: Rz(90) (x, y, z) = (-y, x, z); gt = 2 * Rz(90) est + (1, 2, 3).
-  gt << 1, 1, -3, 1,
-        2, 4, 2, 2,
-        3, 3, 3, 9;
+  gt << 1, 1, -3, 1, 2, 4, 2, 2, 3, 3, 3, 9;
   const Sim3Transform s = UmeyamaAlignment(est, gt, TrajectoryAlignment::kSim3);
   EXPECT_NEAR(s.scale, 2.0, 1e-12);
   EXPECT_TRUE(s.R.isApprox(Rz(M_PI / 2), 1e-12)) << s.R;
@@ -98,9 +92,7 @@ TEST(UmeyamaAlignment, MatchesEigenUmeyama) {
 TEST(UmeyamaAlignment, Reflection) {
   // A mirrored point set must still get a proper rotation (det +1), never a reflection.
   Eigen::Matrix3Xd est(3, 4);
-  est << 0, 1, 0, 0,
-         0, 0, 1, 0,
-         0, 0, 0, 1;
+  est << 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1;
   Eigen::Matrix3Xd gt = est;
   gt.row(2) *= -1;
   const Sim3Transform s = UmeyamaAlignment(est, gt, TrajectoryAlignment::kSE3);
@@ -242,7 +234,8 @@ TEST(Rde, Nominal) {
   r = ComputeRde(pairs, {1.5, RelativeDelta::Unit::kMeters});  // j = i + 2 (first at >= 1.5 m of travel)
   EXPECT_EQ(r.errors_m.size(), 3u);
   EXPECT_NEAR(r.stats_m.max, 0.2, 1e-12);
-  r = ComputeRde(pairs, {0.25, RelativeDelta::Unit::kSeconds});  // 0.1 s per frame: nearest to +0.25 s is i + 2 or i + 3
+  r = ComputeRde(pairs,
+                 {0.25, RelativeDelta::Unit::kSeconds});  // 0.1 s per frame: nearest to +0.25 s is i + 2 or i + 3
   EXPECT_GE(r.errors_m.size(), 2u);
   r = ComputeRde(pairs, {1, RelativeDelta::Unit::kFrames}, 1 / 1.1);  // scale corrected
   EXPECT_LT(r.stats_m.max, 1e-12);
@@ -325,7 +318,8 @@ TEST(ApplyExtrinsic, Nominal) {
   const Trajectory cam = ApplyExtrinsic(body, Pose(R_body_cam, Eigen::Vector3d(0.1, 0, 0)));
   // Body x is world y, so the camera sits at (1, 2.1, 3); its z axis is world -z.
   EXPECT_TRUE(cam.poses[0].T_world_frame.translation().isApprox(Eigen::Vector3d(1, 2.1, 3), 1e-12));
-  EXPECT_TRUE((cam.poses[0].T_world_frame.linear() * Eigen::Vector3d::UnitZ()).isApprox(-Eigen::Vector3d::UnitZ(), 1e-12));
+  EXPECT_TRUE(
+      (cam.poses[0].T_world_frame.linear() * Eigen::Vector3d::UnitZ()).isApprox(-Eigen::Vector3d::UnitZ(), 1e-12));
   EXPECT_EQ(cam.poses[0].t_ns, body.poses[0].t_ns);
 }
 

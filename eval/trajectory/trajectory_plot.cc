@@ -110,8 +110,9 @@ cv::Mat PlotTrajectory(const PosePairs& pairs, const Sim3Transform& alignment, c
   cv::polylines(img, ep, false, kError, 1, cv::LINE_AA);
   double sq = 0;
   for (double e : err) sq += e * e;
-  Text(&img, fmt::format("ATE per pose [m] over time [s]  (RMSE {:.3f} m, max {:.3f} m, {} poses)",
-                         std::sqrt(sq / n), *std::max_element(err.begin(), err.end()), n),
+  Text(&img,
+       fmt::format("ATE per pose [m] over time [s]  (RMSE {:.3f} m, max {:.3f} m, {} poses)", std::sqrt(sq / n),
+                   *std::max_element(err.begin(), err.end()), n),
        {margin, top - 10}, 0.5);
   return img;
 }

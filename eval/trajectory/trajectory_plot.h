@@ -14,10 +14,10 @@ namespace rs {
 
 /// Size and labels of the plot.
 struct TrajectoryPlotOptions {
-  int width_px = 1400;          ///< image width
-  int top_height_px = 700;      ///< height of the top-view panel
-  int error_height_px = 300;    ///< height of the error-over-time panel
-  std::string title;            ///< first line of text, e.g. the estimate's file name
+  int width_px = 1400;        ///< image width
+  int top_height_px = 700;    ///< height of the top-view panel
+  int error_height_px = 300;  ///< height of the error-over-time panel
+  std::string title;          ///< first line of text, e.g. the estimate's file name
 };
 
 /// Renders the associated pairs: truth positions and the aligned estimate (alignment.Apply) in the

@@ -49,7 +49,8 @@ std::string TrajectoryEvalOptions::Check() const {
   if (max_time_difference_ns < 0) {
     return fmt::format("max_time_difference_ns = {} violates max_time_difference_ns >= 0", max_time_difference_ns);
   }
-  if (min_matched_poses < 3) return fmt::format("min_matched_poses = {} violates min_matched_poses >= 3", min_matched_poses);
+  if (min_matched_poses < 3)
+    return fmt::format("min_matched_poses = {} violates min_matched_poses >= 3", min_matched_poses);
   if (std::string e = CheckDelta("rde_delta", rde_delta); !e.empty()) return e;
   if (std::string e = CheckDelta("rpe_delta", rpe_delta); !e.empty()) return e;
   if (kitti.step_frames < 1) return fmt::format("kitti.step_frames = {} violates step_frames >= 1", kitti.step_frames);
@@ -59,7 +60,8 @@ std::string TrajectoryEvalOptions::Check() const {
   return {};
 }
 
-TrajectoryEvalReport EvaluateTrajectory(const Trajectory& est, const Trajectory& gt, const TrajectoryEvalOptions& options) {
+TrajectoryEvalReport EvaluateTrajectory(const Trajectory& est, const Trajectory& gt,
+                                        const TrajectoryEvalOptions& options) {
   if (std::string error = options.Check(); !error.empty()) throw std::invalid_argument("trajectory eval: " + error);
   TrajectoryEvalReport r;
   r.options = options;
@@ -67,20 +69,22 @@ TrajectoryEvalReport EvaluateTrajectory(const Trajectory& est, const Trajectory&
   r.gt_source = gt.source;
   r.est_poses = est.poses.size();
   r.gt_poses = gt.poses.size();
-  const PosePairs pairs = options.associate_by_index
-                              ? AssociateByIndex(est, gt)
-                              : AssociateByTimestamp(est, gt, options.max_time_difference_ns, options.est_time_offset_ns);
+  const PosePairs pairs = options.associate_by_index ? AssociateByIndex(est, gt)
+                                                     : AssociateByTimestamp(est, gt, options.max_time_difference_ns,
+                                                                            options.est_time_offset_ns);
   r.matched_poses = pairs.size();
   if (pairs.size() < options.min_matched_poses) {
-    throw InputError(InputLocation::File(est.source),
-                     fmt::format("only {} of {} poses matched a ground-truth pose in {} (need {}){}", pairs.size(),
-                                 est.poses.size(), gt.source, options.min_matched_poses,
-                                 options.associate_by_index ? "" : "; check time bases, --max-time-diff and --time-offset"));
+    throw InputError(
+        InputLocation::File(est.source),
+        fmt::format("only {} of {} poses matched a ground-truth pose in {} (need {}){}", pairs.size(), est.poses.size(),
+                    gt.source, options.min_matched_poses,
+                    options.associate_by_index ? "" : "; check time bases, --max-time-diff and --time-offset"));
   }
   size_t repeated = 0;
   for (size_t i = 1; i < est.poses.size(); ++i) repeated += est.poses[i].t_ns == est.poses[i - 1].t_ns;
   if (repeated && !options.associate_by_index) {
-    r.warnings.push_back(fmt::format("{} estimate poses repeat the previous pose's time; only the first is matched", repeated));
+    r.warnings.push_back(
+        fmt::format("{} estimate poses repeat the previous pose's time; only the first is matched", repeated));
   }
   if (pairs.size() < est.poses.size()) {
     r.warnings.push_back(fmt::format("{} of {} estimate poses have no ground-truth match and are not evaluated",
@@ -100,7 +104,8 @@ TrajectoryEvalReport EvaluateTrajectory(const Trajectory& est, const Trajectory&
   if (r.kitti.segments == 0) {
     r.warnings.push_back("KITTI odometry: no sub-sequence of the requested lengths fits the ground truth");
   } else if (r.kitti.used_lengths_m != options.kitti.lengths_m) {
-    r.warnings.push_back("KITTI odometry: ground truth shorter than every requested length; used 1/10..8/10 of its length");
+    r.warnings.push_back(
+        "KITTI odometry: ground truth shorter than every requested length; used 1/10..8/10 of its length");
   }
   return r;
 }
@@ -111,15 +116,16 @@ nlohmann::json TrajectoryEvalReportToJson(const TrajectoryEvalReport& r) {
   j["estimate"] = {{"path", r.est_source}, {"poses", r.est_poses}};
   j["ground_truth"] = {{"path", r.gt_source}, {"poses", r.gt_poses}};
   j["matched_poses"] = r.matched_poses;
-  j["options"] = {
-      {"alignment", TrajectoryAlignmentName(o.alignment)},
-      {"association", o.associate_by_index ? "index" : "timestamp"},
-      {"max_time_difference_s", o.max_time_difference_ns * 1e-9},
-      {"est_time_offset_s", o.est_time_offset_ns * 1e-9},
-      {"rde_delta", DeltaJson(o.rde_delta)},
-      {"rpe_delta", DeltaJson(o.rpe_delta)},
-      {"kitti", {{"lengths_m", o.kitti.lengths_m}, {"step_frames", o.kitti.step_frames},
-                 {"shorten_for_short_sequences", o.kitti.shorten_for_short_sequences}}}};
+  j["options"] = {{"alignment", TrajectoryAlignmentName(o.alignment)},
+                  {"association", o.associate_by_index ? "index" : "timestamp"},
+                  {"max_time_difference_s", o.max_time_difference_ns * 1e-9},
+                  {"est_time_offset_s", o.est_time_offset_ns * 1e-9},
+                  {"rde_delta", DeltaJson(o.rde_delta)},
+                  {"rpe_delta", DeltaJson(o.rpe_delta)},
+                  {"kitti",
+                   {{"lengths_m", o.kitti.lengths_m},
+                    {"step_frames", o.kitti.step_frames},
+                    {"shorten_for_short_sequences", o.kitti.shorten_for_short_sequences}}}};
   const Sim3Transform& a = r.ate.alignment;
   nlohmann::json rotation = nlohmann::json::array();
   for (int row = 0; row < 3; ++row) rotation.push_back({a.R(row, 0), a.R(row, 1), a.R(row, 2)});
@@ -134,8 +140,10 @@ nlohmann::json TrajectoryEvalReportToJson(const TrajectoryEvalReport& r) {
   kitti["r_err_deg_per_100m"] = r.kitti.segments ? nlohmann::json(r.kitti.r_err_deg_per_100m) : nlohmann::json(nullptr);
   kitti["per_length"] = nlohmann::json::array();
   for (const auto& p : r.kitti.per_length) {
-    kitti["per_length"].push_back({{"length_m", p.length_m}, {"segments", p.segments},
-                                   {"t_err_percent", p.t_err_percent}, {"r_err_deg_per_100m", p.r_err_deg_per_100m}});
+    kitti["per_length"].push_back({{"length_m", p.length_m},
+                                   {"segments", p.segments},
+                                   {"t_err_percent", p.t_err_percent},
+                                   {"r_err_deg_per_100m", p.r_err_deg_per_100m}});
   }
   j["kitti"] = kitti;
   j["warnings"] = r.warnings;

@@ -19,13 +19,11 @@ namespace {
 
 namespace fs = std::filesystem;
 
-fs::path EvoData() {
-  return rs::test::DataRoot() / "kitti_euroc_trajectories" / "evo" / "test" / "data";
-}
+fs::path EvoData() { return rs::test::DataRoot() / "kitti_euroc_trajectories" / "evo" / "test" / "data"; }
 
-#define SKIP_WITHOUT_EVO_DATA()                                                                   \
-  if (!fs::exists(EvoData())) GTEST_SKIP() << "real trajectories not found at " << EvoData()    \
-                                           << " (set ROADSURVEY_DATA to the shared data folder)"
+#define SKIP_WITHOUT_EVO_DATA() \
+  if (!fs::exists(EvoData()))   \
+  GTEST_SKIP() << "real trajectories not found at " << EvoData() << " (set ROADSURVEY_DATA to the shared data folder)"
 
 /// ATE RMSE computed the plain way, independently of trajectory_metrics.cc: Eigen::umeyama on
 /// index-matched positions, then the root mean square of the residuals.
@@ -182,10 +180,9 @@ TEST(TrajectoryReport, EurocBodyToCamera) {
   const Trajectory gt_body = ReadTrajectory(d / "V102_groundtruth.csv", std::nullopt);
   const Trajectory est = ReadTrajectory(d / "V102.txt", std::nullopt);
   Eigen::Matrix4d M;
-  M << 0.0148655429818, -0.999880929698, 0.00414029679422, -0.0216401454975,
-       0.999557249008, 0.0149672133247, 0.025715529948, -0.064676986768,
-      -0.0257744366974, 0.00375618835797, 0.999660727178, 0.00981073058949,
-       0.0, 0.0, 0.0, 1.0;
+  M << 0.0148655429818, -0.999880929698, 0.00414029679422, -0.0216401454975, 0.999557249008, 0.0149672133247,
+      0.025715529948, -0.064676986768, -0.0257744366974, 0.00375618835797, 0.999660727178, 0.00981073058949, 0.0, 0.0,
+      0.0, 1.0;
   Eigen::Isometry3d T_body_cam(M);
   // V102.txt tracks the body frame: against body-frame truth the orientation error is small; against
   // camera-frame truth it is the extrinsic's own rotation (about 90 degrees).

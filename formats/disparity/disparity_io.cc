@@ -91,7 +91,8 @@ cv::Mat ColorizeDisparity(const cv::Mat& d, const cv::Mat& valid, double d_min, 
   cv::Mat canvas(H, d.cols + bar_w + label_w, CV_8UC3, cv::Scalar::all(255));
   colour.copyTo(canvas(cv::Rect(0, 0, d.cols, H)));
   cv::Mat ramp(H, 1, CV_8U);
-  for (int v = 0; v < H; ++v) ramp.at<uint8_t>(v, 0) = cv::saturate_cast<uint8_t>(255.0 * (H - 1 - v) / std::max(1, H - 1));
+  for (int v = 0; v < H; ++v)
+    ramp.at<uint8_t>(v, 0) = cv::saturate_cast<uint8_t>(255.0 * (H - 1 - v) / std::max(1, H - 1));
   cv::Mat ramp_c;
   cv::applyColorMap(ramp, ramp_c, cv::COLORMAP_TURBO);
   cv::resize(ramp_c, ramp_c, cv::Size(bar_w, H), 0, 0, cv::INTER_NEAREST);

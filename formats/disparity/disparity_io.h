@@ -14,13 +14,13 @@ struct RectifiedStereo;
 
 /// File names inside one frame folder of the disparity stage's output.
 namespace disparity_files {
-inline constexpr const char* kDisparity = "disparity.png";         ///< KITTI 16-bit, the stage's disparity
-inline constexpr const char* kSharp = "disparity_sharp.png";       ///< KITTI 16-bit, small refinement window alone
-inline constexpr const char* kValid = "valid.png";                 ///< CV_8U 255 = valid
-inline constexpr const char* kTransformed = "transformed.tiff";    ///< CV_32F transformed disparity (eq. 5)
-inline constexpr const char* kRoadModel = "road_model.json";       ///< the frame's road disparity model
-inline constexpr const char* kPreview = "preview.png";             ///< colour preview with a scale
-inline constexpr const char* kPointCloud = "cloud.ply";            ///< binary PLY of the valid pixels
+inline constexpr const char* kDisparity = "disparity.png";       ///< KITTI 16-bit, the stage's disparity
+inline constexpr const char* kSharp = "disparity_sharp.png";     ///< KITTI 16-bit, small refinement window alone
+inline constexpr const char* kValid = "valid.png";               ///< CV_8U 255 = valid
+inline constexpr const char* kTransformed = "transformed.tiff";  ///< CV_32F transformed disparity (eq. 5)
+inline constexpr const char* kRoadModel = "road_model.json";     ///< the frame's road disparity model
+inline constexpr const char* kPreview = "preview.png";           ///< colour preview with a scale
+inline constexpr const char* kPointCloud = "cloud.ply";          ///< binary PLY of the valid pixels
 }  // namespace disparity_files
 
 /// CV_16U image in the KITTI convention: round(d * 256) clamped to [1, 65535] on valid pixels

@@ -16,18 +16,15 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   try {
     std::istringstream in(text);
     rs::ReadTrackCsv(in, "fuzz.csv");
-  } catch (const rs::InputError&) {
-  }
+  } catch (const rs::InputError&) {}
   try {
     std::istringstream in(text);
     rs::ReadFlightCsv(in, "fuzz.csv");
-  } catch (const rs::InputError&) {
-  }
+  } catch (const rs::InputError&) {}
   try {
     std::istringstream in(text);
     rs::FlightTrack t;
     rs::ReadKittiOxtsRecord(in, "fuzz.txt", 0, &t);
-  } catch (const rs::InputError&) {
-  }
+  } catch (const rs::InputError&) {}
   return 0;
 }

@@ -116,7 +116,8 @@ void SrtParser::ParseTimecode(std::string_view s, Record* r) {
   const size_t arrow = s.find("-->");
   int64_t start, end;
   if (!ParseSrtTime(s.substr(0, arrow), &start) || !ParseSrtTime(s.substr(arrow + 3), &end))
-    Fail(line_no_, 1, "malformed subtitle timecode '" + std::string(Trim(s)) + "' (expected HH:MM:SS,mmm --> HH:MM:SS,mmm)");
+    Fail(line_no_, 1,
+         "malformed subtitle timecode '" + std::string(Trim(s)) + "' (expected HH:MM:SS,mmm --> HH:MM:SS,mmm)");
   if (r->timecode_ns) Fail(line_no_, 1, "second timecode line in subtitle " + std::to_string(r->index));
   r->timecode_ns = start;
 }
@@ -132,7 +133,8 @@ Value SrtParser::Number(std::string_view text, int64_t col, const char* what, bo
     }
   }
   Value v;
-  if (!flightlog::ParseDouble(t, &v.v)) Fail(line_no_, col, std::string(what) + ": not a number: '" + std::string(Trim(text)) + "'");
+  if (!flightlog::ParseDouble(t, &v.v))
+    Fail(line_no_, col, std::string(what) + ": not a number: '" + std::string(Trim(text)) + "'");
   v.line = line_no_;
   v.column = col;
   return v;
@@ -160,11 +162,16 @@ void SrtParser::ParseBracket(std::string_view inner, int64_t col0, Record* r) {
     const std::string_view val = inner.substr(vb, i - vb);
     const int64_t col = col0 + static_cast<int64_t>(vb);
     Value* dst = nullptr;
-    if (key == "latitude") dst = &r->tag_lat;
-    else if (key == "longitude" || key == "longtitude") dst = &r->tag_lon;  // DJI's typo in Mavic 2 firmware
-    else if (key == "abs_alt") dst = &r->abs_alt;
-    else if (key == "rel_alt") dst = &r->rel_alt;
-    else if (key == "altitude") dst = &r->altitude;
+    if (key == "latitude")
+      dst = &r->tag_lat;
+    else if (key == "longitude" || key == "longtitude")
+      dst = &r->tag_lon;  // DJI's typo in Mavic 2 firmware
+    else if (key == "abs_alt")
+      dst = &r->abs_alt;
+    else if (key == "rel_alt")
+      dst = &r->rel_alt;
+    else if (key == "altitude")
+      dst = &r->altitude;
     if (dst == nullptr) continue;
     if (dst->Has()) Fail(line_no_, col, "'" + key + "' given twice in one subtitle");
     *dst = Number(val, col, key.c_str(), false);
@@ -212,11 +219,16 @@ void SrtParser::ParseItem(std::string_view item, int64_t col0, Record* r) {
   const std::string_view key = Trim(item.substr(0, sep));
   const std::string_view val = Trim(item.substr(sep + 1));
   Value* dst = nullptr;
-  if (key == "BAROMETER") dst = &r->barometer;
-  else if (key == "Hb") dst = &r->hb;
-  else if (key == "Hs") dst = &r->hs;
-  else if (key == "H") dst = &r->h;
-  else if (key == "H.S") dst = &r->speed;
+  if (key == "BAROMETER")
+    dst = &r->barometer;
+  else if (key == "Hb")
+    dst = &r->hb;
+  else if (key == "Hs")
+    dst = &r->hs;
+  else if (key == "H")
+    dst = &r->h;
+  else if (key == "H.S")
+    dst = &r->speed;
   if (dst == nullptr || IsNotAvailable(val)) return;
   const int64_t col = col0 + static_cast<int64_t>(val.data() - item.data());
   *dst = Number(val, col, std::string(key).c_str(), true);
@@ -255,11 +267,12 @@ void SrtParser::ParsePayload(std::string s, Record* r) {
     size_t ne = i;
     while (ne > 0 && s[ne - 1] == ' ') --ne;
     size_t nb = ne;
-    while (nb > 0 && (std::isalnum(static_cast<unsigned char>(s[nb - 1])) || s[nb - 1] == '.' || s[nb - 1] == '_')) --nb;
+    while (nb > 0 && (std::isalnum(static_cast<unsigned char>(s[nb - 1])) || s[nb - 1] == '.' || s[nb - 1] == '_'))
+      --nb;
     const size_t e = s.find(')', i + 1);
     if (e == std::string::npos) Fail(line_no_, static_cast<int64_t>(i) + 1, "unterminated '(' (truncated record?)");
-    ParseCall(std::string_view(s).substr(nb, ne - nb), static_cast<int64_t>(nb) + 1, std::string_view(s).substr(i + 1, e - i - 1),
-              static_cast<int64_t>(i) + 2, r);
+    ParseCall(std::string_view(s).substr(nb, ne - nb), static_cast<int64_t>(nb) + 1,
+              std::string_view(s).substr(i + 1, e - i - 1), static_cast<int64_t>(i) + 2, r);
     s.replace(nb, e - nb + 1, e - nb + 1, ' ');
     i = e;
   }
@@ -295,10 +308,14 @@ std::vector<Record> SrtParser::Parse() {
       continue;
     }
     if (!in_record)
-      Fail(line_no_, 1, records.empty() ? "not a DJI SRT file: expected a subtitle number, got '" + std::string(t.substr(0, 40)) + "'"
-                                        : "expected a subtitle number after the blank line, got '" + std::string(t.substr(0, 40)) + "'");
-    if (t.find("-->") != std::string_view::npos) ParseTimecode(line_, &records.back());
-    else ParsePayload(line_, &records.back());
+      Fail(line_no_, 1,
+           records.empty()
+               ? "not a DJI SRT file: expected a subtitle number, got '" + std::string(t.substr(0, 40)) + "'"
+               : "expected a subtitle number after the blank line, got '" + std::string(t.substr(0, 40)) + "'");
+    if (t.find("-->") != std::string_view::npos)
+      ParseTimecode(line_, &records.back());
+    else
+      ParsePayload(line_, &records.back());
   }
   if (in_.bad()) throw InputError(InputLocation::File(path_), "read error");
   if (records.empty()) Fail(1, -1, "empty file: no SRT subtitles");
@@ -327,7 +344,8 @@ GpsOrder DecideGpsOrder(const std::vector<Record>& recs, const std::string& path
       if (std::abs(g->a) > 90 && !a_big) a_big = &r;
       if (std::abs(g->b) > 90 && !b_big) b_big = &r;
     }
-    if (r.gps.present && !r.gps.third.empty() && (r.gps.third.back() == 'M' || r.gps.third.back() == 'm')) unit_third = true;
+    if (r.gps.present && !r.gps.third.empty() && (r.gps.third.back() == 'M' || r.gps.third.back() == 'm'))
+      unit_third = true;
     if (r.tag_lat.Has() && r.tag_lon.Has() && std::isnan(tag_lat)) tag_lat = r.tag_lat.v, tag_lon = r.tag_lon.v;
   }
   if (a_big && b_big)
@@ -335,15 +353,19 @@ GpsOrder DecideGpsOrder(const std::vector<Record>& recs, const std::string& path
                      "GPS(...) value order is inconsistent: line " + std::to_string(a_big->gps.line) +
                          " has a first value beyond +-90 (a longitude) but this one has a second value beyond +-90");
   if (a_big) return {true, "(lon, lat): a first value beyond +-90 degrees at line " + std::to_string(a_big->gps.line)};
-  if (b_big) return {false, "(lat, lon): a second value beyond +-90 degrees at line " + std::to_string(b_big->gps.line)};
+  if (b_big)
+    return {false, "(lat, lon): a second value beyond +-90 degrees at line " + std::to_string(b_big->gps.line)};
   if (!std::isnan(tag_lat)) {  // mixed file: the tagged records say where the drone is
     for (const Record& r : recs) {
       if (!r.gps.present || r.gps.not_available) continue;
       const bool lon_first = Dist2(tag_lat, tag_lon, r.gps.b, r.gps.a) <= Dist2(tag_lat, tag_lon, r.gps.a, r.gps.b);
-      return {lon_first, std::string(lon_first ? "(lon, lat)" : "(lat, lon)") + ": the reading nearer to the file's [latitude]/[longitude] records"};
+      return {lon_first, std::string(lon_first ? "(lon, lat)" : "(lat, lon)") +
+                             ": the reading nearer to the file's [latitude]/[longitude] records"};
     }
   }
-  if (unit_third) return {false, "(lat, lon): ambiguous by magnitude; dialect default for GPS(x, y, altM) (Matrice/Enterprise firmware)"};
+  if (unit_third)
+    return {false,
+            "(lat, lon): ambiguous by magnitude; dialect default for GPS(x, y, altM) (Matrice/Enterprise firmware)"};
   return {true, "(lon, lat): ambiguous by magnitude; dialect default for GPS(x, y, n) (DJI GO firmware)"};
 }
 
@@ -362,28 +384,44 @@ FlightTrack ReadDjiSrt(std::istream& in, const std::string& path) {
   const bool any_position = std::any_of(recs.begin(), recs.end(), [](const Record& r) { return r.HasPosition(); });
   if (!any_position)
     throw InputError(InputLocation::Line(path, recs.front().line),
-                     "none of the " + std::to_string(recs.size()) + " subtitles has a GPS position (truncated, or a camera that writes exposure only)");
+                     "none of the " + std::to_string(recs.size()) +
+                         " subtitles has a GPS position (truncated, or a camera that writes exposure only)");
   for (const Record& r : recs) {
-    if (!r.HasPosition()) throw InputError(InputLocation::Line(path, r.line), "subtitle " + std::to_string(r.index) + " has no GPS position (truncated or corrupt record)");
+    if (!r.HasPosition())
+      throw InputError(InputLocation::Line(path, r.line),
+                       "subtitle " + std::to_string(r.index) + " has no GPS position (truncated or corrupt record)");
     if (r.tag_lat.Has() != r.tag_lon.Has())
-      throw InputError(InputLocation::Line(path, r.line), "subtitle " + std::to_string(r.index) + " has a " + (r.tag_lat.Has() ? "latitude but no longitude" : "longitude but no latitude") + " (truncated record?)");
+      throw InputError(InputLocation::Line(path, r.line),
+                       "subtitle " + std::to_string(r.index) + " has a " +
+                           (r.tag_lat.Has() ? "latitude but no longitude" : "longitude but no latitude") +
+                           " (truncated record?)");
   }
   // Time: the video clock where every record has a timecode, else date-times relative to the first.
-  const bool all_timecode = std::all_of(recs.begin(), recs.end(), [](const Record& r) { return r.timecode_ns.has_value(); });
-  const bool all_datetime = std::all_of(recs.begin(), recs.end(), [](const Record& r) { return r.datetime_ns.has_value(); });
+  const bool all_timecode =
+      std::all_of(recs.begin(), recs.end(), [](const Record& r) { return r.timecode_ns.has_value(); });
+  const bool all_datetime =
+      std::all_of(recs.begin(), recs.end(), [](const Record& r) { return r.datetime_ns.has_value(); });
   if (!all_timecode && !all_datetime) {
     for (const Record& r : recs)
       if (!r.timecode_ns && !r.datetime_ns)
-        throw InputError(InputLocation::Line(path, r.line), "subtitle " + std::to_string(r.index) + " has neither a timecode nor a date-time");
-    throw InputError(InputLocation::Line(path, recs.front().line), "subtitles mix timecodes and date-times with neither on every record");
+        throw InputError(InputLocation::Line(path, r.line),
+                         "subtitle " + std::to_string(r.index) + " has neither a timecode nor a date-time");
+    throw InputError(InputLocation::Line(path, recs.front().line),
+                     "subtitles mix timecodes and date-times with neither on every record");
   }
   const Record* first_dated = nullptr;
   for (const Record& r : recs)
-    if (r.datetime_ns) { first_dated = &r; break; }
+    if (r.datetime_ns) {
+      first_dated = &r;
+      break;
+    }
   if (all_timecode) {
-    track.notes.push_back("t_ns is the subtitle start time on the video clock (origin: start of the video); DJI SRT has no UTC");
+    track.notes.push_back(
+        "t_ns is the subtitle start time on the video clock (origin: start of the video); DJI SRT has no UTC");
   } else {
-    track.notes.push_back("t_ns is the record date-time minus the first record's (no subtitle timecodes); DJI writes camera local time without a zone");
+    track.notes.push_back(
+        "t_ns is the record date-time minus the first record's (no subtitle timecodes); DJI writes camera local time "
+        "without a zone");
   }
   if (first_dated) {
     // Restated so a caller who knows the time zone can map the track to UTC.
@@ -392,7 +430,8 @@ FlightTrack ReadDjiSrt(std::istream& in, const std::string& path) {
                           std::to_string(all_timecode ? *first_dated->timecode_ns : 0));
   }
 
-  const bool any_call = std::any_of(recs.begin(), recs.end(), [](const Record& r) { return r.gps.present && !r.gps.not_available; });
+  const bool any_call =
+      std::any_of(recs.begin(), recs.end(), [](const Record& r) { return r.gps.present && !r.gps.not_available; });
   GpsOrder order;
   if (any_call) {
     order = DecideGpsOrder(recs, path);
@@ -418,45 +457,69 @@ FlightTrack ReadDjiSrt(std::istream& in, const std::string& path) {
       line = r.gps.line, col = r.gps.column;
       if (!r.gps.third.empty()) {
         int64_t n;
-        if (flightlog::ParseInt64(r.gps.third, &n) && n >= 0 && n <= 99) f.satellites = static_cast<int>(n);
-        else ++ignored_gps_alt;
+        if (flightlog::ParseInt64(r.gps.third, &n) && n >= 0 && n <= 99)
+          f.satellites = static_cast<int>(n);
+        else
+          ++ignored_gps_alt;
       }
     }
     if (std::abs(f.lat_deg) > 90 || std::abs(f.lon_deg) > 180)
-      throw InputError(InputLocation::Line(path, line, col), "position out of range: lat " + flightlog::FormatDouble(f.lat_deg) + ", lon " + flightlog::FormatDouble(f.lon_deg));
+      throw InputError(InputLocation::Line(path, line, col), "position out of range: lat " +
+                                                                 flightlog::FormatDouble(f.lat_deg) + ", lon " +
+                                                                 flightlog::FormatDouble(f.lon_deg));
     if (f.lat_deg == 0 && f.lon_deg == 0) {  // DJI writes 0,0 before the first fix
       ++dropped_na;
       continue;
     }
     // Altitude: absolute (AMSL) where the firmware gives it, else height above take-off.
-    if (r.abs_alt.Has()) f.alt_m = r.abs_alt.v, f.alt_ref = AltitudeReference::kAmsl;
-    else if (r.altitude.Has()) f.alt_m = r.altitude.v, f.alt_ref = AltitudeReference::kAmsl;
-    else if (r.h.Has()) f.alt_m = r.h.v, f.alt_ref = AltitudeReference::kTakeoff;
-    else if (r.barometer.Has()) f.alt_m = r.barometer.v, f.alt_ref = AltitudeReference::kTakeoff;
-    else if (r.hb.Has()) f.alt_m = r.hb.v, f.alt_ref = AltitudeReference::kTakeoff;
-    else if (r.rel_alt.Has()) f.alt_m = r.rel_alt.v, f.alt_ref = AltitudeReference::kTakeoff;
-    if (std::isnan(f.alt_m)) ++n_none;
-    else if (f.alt_ref == AltitudeReference::kAmsl) ++n_amsl;
-    else ++n_takeoff;
+    if (r.abs_alt.Has())
+      f.alt_m = r.abs_alt.v, f.alt_ref = AltitudeReference::kAmsl;
+    else if (r.altitude.Has())
+      f.alt_m = r.altitude.v, f.alt_ref = AltitudeReference::kAmsl;
+    else if (r.h.Has())
+      f.alt_m = r.h.v, f.alt_ref = AltitudeReference::kTakeoff;
+    else if (r.barometer.Has())
+      f.alt_m = r.barometer.v, f.alt_ref = AltitudeReference::kTakeoff;
+    else if (r.hb.Has())
+      f.alt_m = r.hb.v, f.alt_ref = AltitudeReference::kTakeoff;
+    else if (r.rel_alt.Has())
+      f.alt_m = r.rel_alt.v, f.alt_ref = AltitudeReference::kTakeoff;
+    if (std::isnan(f.alt_m))
+      ++n_none;
+    else if (f.alt_ref == AltitudeReference::kAmsl)
+      ++n_amsl;
+    else
+      ++n_takeoff;
     if (r.speed.Has()) {
-      if (r.speed.v < 0) throw InputError(InputLocation::Line(path, r.speed.line, r.speed.column), "negative horizontal speed");
+      if (r.speed.v < 0)
+        throw InputError(InputLocation::Line(path, r.speed.line, r.speed.column), "negative horizontal speed");
       f.ground_speed_m_s = r.speed.v;
     }
     track.fixes.push_back(f);
-    if (r.has_pry) track.attitude.push_back(flightlog::AttitudeFromEulerDeg(f.t_ns, r.roll_deg, r.pitch_deg, r.yaw_deg));
+    if (r.has_pry)
+      track.attitude.push_back(flightlog::AttitudeFromEulerDeg(f.t_ns, r.roll_deg, r.pitch_deg, r.yaw_deg));
     if (r.home.present && !r.home.not_available && !home_noted) {
       const double hlat = order.lon_first ? r.home.b : r.home.a, hlon = order.lon_first ? r.home.a : r.home.b;
-      track.notes.push_back("home point: lat " + flightlog::FormatDouble(hlat) + ", lon " + flightlog::FormatDouble(hlon));
+      track.notes.push_back("home point: lat " + flightlog::FormatDouble(hlat) + ", lon " +
+                            flightlog::FormatDouble(hlon));
       home_noted = true;
     }
   }
-  if (dropped_na > 0) track.notes.push_back(std::to_string(dropped_na) + " subtitles without a GPS fix (N/A or 0,0) dropped");
-  if (n_amsl > 0) track.notes.push_back(std::to_string(n_amsl) + " fixes: altitude from abs_alt/altitude tags, taken as AMSL");
-  if (n_takeoff > 0) track.notes.push_back(std::to_string(n_takeoff) + " fixes: altitude from H/BAROMETER/Hb/rel_alt, height above take-off");
+  if (dropped_na > 0)
+    track.notes.push_back(std::to_string(dropped_na) + " subtitles without a GPS fix (N/A or 0,0) dropped");
+  if (n_amsl > 0)
+    track.notes.push_back(std::to_string(n_amsl) + " fixes: altitude from abs_alt/altitude tags, taken as AMSL");
+  if (n_takeoff > 0)
+    track.notes.push_back(std::to_string(n_takeoff) +
+                          " fixes: altitude from H/BAROMETER/Hb/rel_alt, height above take-off");
   if (n_none > 0) track.notes.push_back(std::to_string(n_none) + " fixes without altitude");
-  if (ignored_gps_alt > 0) track.notes.push_back(std::to_string(ignored_gps_alt) + " GPS(...) third values with a unit ignored (altitude of undocumented datum; BAROMETER used)");
+  if (ignored_gps_alt > 0)
+    track.notes.push_back(
+        std::to_string(ignored_gps_alt) +
+        " GPS(...) third values with a unit ignored (altitude of undocumented datum; BAROMETER used)");
   if (!track.attitude.empty()) track.notes.push_back("attitude from F.PRY (aircraft pitch, roll, yaw in degrees)");
-  if (track.fixes.empty()) throw InputError(InputLocation::Line(path, recs.front().line), "no subtitle has a GPS fix (all N/A)");
+  if (track.fixes.empty())
+    throw InputError(InputLocation::Line(path, recs.front().line), "no subtitle has a GPS fix (all N/A)");
   flightlog::SortTrackByTime(&track);
   return track;
 }

@@ -38,7 +38,8 @@ void ExpectError(const std::string& text, int64_t line, int64_t column, const st
 TEST(DjiSrt, Nominal) {  // Mavic 3 dialect
   const FlightTrack t = Read(
       "1\n00:00:00,000 --> 00:00:00,020\n<font size=\"28\">FrameCnt: 1, DiffTime: 20ms\n2021-12-25 12:27:52.373\n"
-      "[iso: 220] [shutter: 1/8000.0] [fnum: 3.2] [latitude: 46.051234] [longitude: 14.505678] [rel_alt: 12.500 abs_alt: 310.25] </font>\n\n"
+      "[iso: 220] [shutter: 1/8000.0] [fnum: 3.2] [latitude: 46.051234] [longitude: 14.505678] [rel_alt: 12.500 "
+      "abs_alt: 310.25] </font>\n\n"
       "2\n00:00:00,020 --> 00:00:00,040\n<font size=\"28\">FrameCnt: 2, DiffTime: 20ms\n2021-12-25 12:27:52.393\n"
       "[iso: 220] [latitude: 46.051240] [longitude: 14.505670] [rel_alt: 12.600 abs_alt: 310.35] </font>\n");
   EXPECT_EQ(t.format, "dji-srt");
@@ -55,8 +56,10 @@ TEST(DjiSrt, Nominal) {  // Mavic 3 dialect
 
 TEST(DjiSrt, LonLatOrderByMagnitude) {  // Mavic Pro: GPS(lon, lat, sats), lon beyond 90
   const FlightTrack t = Read(
-      "1\n00:00:01,000 --> 00:00:02,000\nHOME(149.0251,-20.2532) 2017.08.05 14:11:51\nGPS(149.0251,-20.2533,16) BAROMETER:1.9\nISO:100 Shutter:60 EV: Fnum:2.2\n\n"
-      "2\n00:00:02,000 --> 00:00:03,000\nHOME(149.0251,-20.2532) 2017.08.05 14:11:52\nGPS(149.0252,-20.2534,15) BAROMETER:2.5\nISO:100 Shutter:60 EV: Fnum:2.2\n");
+      "1\n00:00:01,000 --> 00:00:02,000\nHOME(149.0251,-20.2532) 2017.08.05 14:11:51\nGPS(149.0251,-20.2533,16) "
+      "BAROMETER:1.9\nISO:100 Shutter:60 EV: Fnum:2.2\n\n"
+      "2\n00:00:02,000 --> 00:00:03,000\nHOME(149.0251,-20.2532) 2017.08.05 14:11:52\nGPS(149.0252,-20.2534,15) "
+      "BAROMETER:2.5\nISO:100 Shutter:60 EV: Fnum:2.2\n");
   ASSERT_EQ(t.fixes.size(), 2u);
   EXPECT_DOUBLE_EQ(t.fixes[1].lat_deg, -20.2534);
   EXPECT_DOUBLE_EQ(t.fixes[1].lon_deg, 149.0252);
@@ -79,9 +82,10 @@ TEST(DjiSrt, LatLonOrderByMagnitude) {
 
 TEST(DjiSrt, AmbiguousOrderDialectDefaults) {
   // DJI GO 4 style GPS(x, y, n): (lon, lat); Matrice style GPS(x, y, altM): (lat, lon).
-  const FlightTrack go = Read("1\n00:00:00,000 --> 00:00:01,000\nF/5.6, SS 400, ISO 100, EV 0, GPS (-58.851745, -34.237922, 15), "
-                              "HOME (-58.847509, -34.232707, -57.98m), D 698.70m, H 85.80m, H.S 2.88m/s, V.S 0.00m/s, "
-                              "F.PRY (2.7\xC2\xB0, -7.0\xC2\xB0, 110.1\xC2\xB0), G.PRY (-24.4\xC2\xB0, 0.0\xC2\xB0, 110.4\xC2\xB0)\n");
+  const FlightTrack go = Read(
+      "1\n00:00:00,000 --> 00:00:01,000\nF/5.6, SS 400, ISO 100, EV 0, GPS (-58.851745, -34.237922, 15), "
+      "HOME (-58.847509, -34.232707, -57.98m), D 698.70m, H 85.80m, H.S 2.88m/s, V.S 0.00m/s, "
+      "F.PRY (2.7\xC2\xB0, -7.0\xC2\xB0, 110.1\xC2\xB0), G.PRY (-24.4\xC2\xB0, 0.0\xC2\xB0, 110.4\xC2\xB0)\n");
   ASSERT_EQ(go.fixes.size(), 1u);
   EXPECT_DOUBLE_EQ(go.fixes[0].lat_deg, -34.237922);
   EXPECT_DOUBLE_EQ(go.fixes[0].lon_deg, -58.851745);
@@ -99,7 +103,8 @@ TEST(DjiSrt, AmbiguousOrderDialectDefaults) {
   EXPECT_NEAR(pitch, 2.7, 1e-9);
   EXPECT_NEAR(roll, -7.0, 1e-9);
 
-  const FlightTrack m300 = Read("1\n00:00:00,000 --> 00:00:01,000\n2022.06.21 16:06:17\nGPS(36.6146,-6.1120,0.0M) BAROMETER:0.3M\n");
+  const FlightTrack m300 =
+      Read("1\n00:00:00,000 --> 00:00:01,000\n2022.06.21 16:06:17\nGPS(36.6146,-6.1120,0.0M) BAROMETER:0.3M\n");
   EXPECT_DOUBLE_EQ(m300.fixes[0].lat_deg, 36.6146);
   EXPECT_DOUBLE_EQ(m300.fixes[0].lon_deg, -6.112);
   EXPECT_TRUE(HasNote(m300, "dialect default for GPS(x, y, altM)"));
@@ -118,13 +123,16 @@ TEST(DjiSrt, OrderFromTaggedRecordsInSameFile) {
 }
 
 TEST(DjiSrt, InconsistentOrder) {
-  ExpectError("1\n00:00:00,000 --> 00:00:01,000\nGPS(149.0,-20.0,16)\n\n2\n00:00:01,000 --> 00:00:02,000\nGPS(-20.0,149.0,16)\n", 7, 1,
-              "order is inconsistent");
+  ExpectError(
+      "1\n00:00:00,000 --> 00:00:01,000\nGPS(149.0,-20.0,16)\n\n2\n00:00:01,000 --> "
+      "00:00:02,000\nGPS(-20.0,149.0,16)\n",
+      7, 1, "order is inconsistent");
 }
 
 TEST(DjiSrt, DateTimesWithoutTimecodes) {  // Mavic 2 style
-  const FlightTrack t = Read("1\n2017.08.05 14:11:51,393,525,393,525\n[latitude : -20.2533] [longtitude : 149.0251] [iso : 100]\n\n"
-                             "2\n2017.08.05 14:11:52,393,525\n[latitude : -20.2534] [longtitude : 149.0252] [iso : 100]\n");
+  const FlightTrack t = Read(
+      "1\n2017.08.05 14:11:51,393,525,393,525\n[latitude : -20.2533] [longtitude : 149.0251] [iso : 100]\n\n"
+      "2\n2017.08.05 14:11:52,393,525\n[latitude : -20.2534] [longtitude : 149.0252] [iso : 100]\n");
   ASSERT_EQ(t.fixes.size(), 2u);
   EXPECT_EQ(t.fixes[0].t_ns, 0);
   EXPECT_EQ(t.fixes[1].t_ns, 1000000000);
@@ -133,7 +141,9 @@ TEST(DjiSrt, DateTimesWithoutTimecodes) {  // Mavic 2 style
 }
 
 TEST(DjiSrt, NotAvailableFixesCounted) {
-  const FlightTrack t = Read("1\n00:00:01,000 --> 00:00:02,000\nGPS(N/A,N/A,3) BAROMETER:0.0\n\n2\n00:00:02,000 --> 00:00:03,000\nGPS(-1.2218,42.4668,11) BAROMETER:0.5\n");
+  const FlightTrack t = Read(
+      "1\n00:00:01,000 --> 00:00:02,000\nGPS(N/A,N/A,3) BAROMETER:0.0\n\n2\n00:00:02,000 --> "
+      "00:00:03,000\nGPS(-1.2218,42.4668,11) BAROMETER:0.5\n");
   ASSERT_EQ(t.fixes.size(), 1u);
   EXPECT_TRUE(HasNote(t, "1 subtitles without a GPS fix"));
 }
@@ -141,7 +151,8 @@ TEST(DjiSrt, NotAvailableFixesCounted) {
 TEST(DjiSrt, EmptyFile) { ExpectError("", 1, -1, "empty file"); }
 TEST(DjiSrt, OnlyIndex) { ExpectError("1\n", 1, -1, "none of the 1 subtitles has a GPS position"); }
 TEST(DjiSrt, TruncatedLastRecord) {
-  ExpectError("1\n00:00:01,000 --> 00:00:02,000\nGPS(149.0,-20.0,16)\n\n2\n00:00:02,000 --> 00:00:03,000\n", 5, -1, "subtitle 2 has no GPS position");
+  ExpectError("1\n00:00:01,000 --> 00:00:02,000\nGPS(149.0,-20.0,16)\n\n2\n00:00:02,000 --> 00:00:03,000\n", 5, -1,
+              "subtitle 2 has no GPS position");
 }
 TEST(DjiSrt, UnterminatedBracket) {
   ExpectError("1\n00:00:00,000 --> 00:00:00,040\n[iso : 100] [latitude : -34.86995] [lo", 3, 36, "unterminated '['");
@@ -150,12 +161,16 @@ TEST(DjiSrt, LatitudeWithoutLongitude) {
   ExpectError("1\n00:00:00,000 --> 00:00:00,040\n[latitude : -34.86995]\n", 1, -1, "latitude but no longitude");
 }
 TEST(DjiSrt, BadNumber) {
-  ExpectError("1\n00:00:00,000 --> 00:00:00,040\n[latitude : -34.8x] [longitude : 1.0]\n", 3, 13, "latitude: not a number");
+  ExpectError("1\n00:00:00,000 --> 00:00:00,040\n[latitude : -34.8x] [longitude : 1.0]\n", 3, 13,
+              "latitude: not a number");
 }
-TEST(DjiSrt, BadTimecode) { ExpectError("1\n00:00:0O,000 --> 00:00:01,000\nGPS(149.0,-20.0,16)\n", 2, 1, "malformed subtitle timecode"); }
+TEST(DjiSrt, BadTimecode) {
+  ExpectError("1\n00:00:0O,000 --> 00:00:01,000\nGPS(149.0,-20.0,16)\n", 2, 1, "malformed subtitle timecode");
+}
 TEST(DjiSrt, NotSrt) { ExpectError("hello world\n", 1, 1, "not a DJI SRT file"); }
 TEST(DjiSrt, PositionOutOfRange) {
-  ExpectError("1\n00:00:00,000 --> 00:00:00,040\n[latitude : 95.0] [longitude : 1.0]\n", 3, 13, "position out of range");
+  ExpectError("1\n00:00:00,000 --> 00:00:00,040\n[latitude : 95.0] [longitude : 1.0]\n", 3, 13,
+              "position out of range");
 }
 
 // ---- Real samples (DJI_SRT_Parser test files) ----
@@ -164,7 +179,13 @@ std::filesystem::path SampleDir() { return testing::DataRoot() / "dji_srt" / "sa
 
 TEST(DjiSrtSamples, Nominal) {
   if (!std::filesystem::is_directory(SampleDir())) GTEST_SKIP() << "no " << SampleDir() << " (set ROADSURVEY_DATA)";
-  struct Expect { const char* file; size_t fixes; double lat, lon, alt; AltitudeReference ref; int64_t last_t_ns; };
+  struct Expect {
+    const char* file;
+    size_t fixes;
+    double lat, lon, alt;
+    AltitudeReference ref;
+    int64_t last_t_ns;
+  };
   // Counts, first positions (the file's own text) and last subtitle start times, read off the files with grep.
   const Expect kExpect[] = {
       {"MAVIC3.srt", 12318, 3.41531, -3.37440, 0.401, AltitudeReference::kAmsl, 246340000000},
@@ -188,8 +209,10 @@ TEST(DjiSrtSamples, Nominal) {
     ASSERT_EQ(t.fixes.size(), e.fixes);
     EXPECT_NEAR(t.fixes[0].lat_deg, e.lat, 1e-12);
     EXPECT_NEAR(t.fixes[0].lon_deg, e.lon, 1e-12);
-    if (std::isnan(e.alt)) EXPECT_TRUE(std::isnan(t.fixes[0].alt_m));
-    else EXPECT_NEAR(t.fixes[0].alt_m, e.alt, 1e-12);
+    if (std::isnan(e.alt))
+      EXPECT_TRUE(std::isnan(t.fixes[0].alt_m));
+    else
+      EXPECT_NEAR(t.fixes[0].alt_m, e.alt, 1e-12);
     EXPECT_EQ(t.fixes[0].alt_ref, e.ref);
     EXPECT_EQ(t.fixes.back().t_ns, e.last_t_ns);
   }
@@ -200,7 +223,11 @@ TEST(DjiSrtSamples, Nominal) {
 
 TEST(DjiSrtSamples, BrokenFilesGiveLocatedErrors) {
   if (!std::filesystem::is_directory(SampleDir())) GTEST_SKIP() << "no " << SampleDir() << " (set ROADSURVEY_DATA)";
-  struct Expect { const char* file; int64_t line, column; const char* what; };
+  struct Expect {
+    const char* file;
+    int64_t line, column;
+    const char* what;
+  };
   const Expect kExpect[] = {
       {"broken_empty.SRT", 1, -1, "empty file"},
       {"broken_empty2.SRT", 1, -1, "none of the 1 subtitles"},
@@ -228,7 +255,8 @@ TEST(DjiSrtSamples, TruncatedAndBitFlippedCopies) {
     const std::string ext = entry.path().extension().string();
     if (ext != ".srt" && ext != ".SRT") continue;
     const std::string text = testing::Slurp(entry.path(), 32 << 10);  // the head is enough, keeps the test fast
-    const auto st = testing::Mutate(text, [&](std::istream& in) { return ReadDjiSrt(in, "m.srt"); }, 20, 60, 1234);
+    const auto st = testing::Mutate(
+        text, [&](std::istream& in) { return ReadDjiSrt(in, "m.srt"); }, 20, 60, 1234);
     total += st.parsed + st.input_errors;
     errors += st.input_errors;
     EXPECT_EQ(st.input_errors_with_line, st.input_errors) << entry.path() << ": every SRT error names a line";

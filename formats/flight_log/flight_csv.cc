@@ -47,7 +47,22 @@ bool In(const std::string& s, std::initializer_list<const char*> names) {
 }
 
 /// Column roles the reader understands.
-enum class Role { kNone, kTimeAbs, kTimeRel, kLat, kLon, kAlt, kSpeed, kSats, kHAcc, kVAcc, kYaw, kPitch, kRoll, kPhoto };
+enum class Role {
+  kNone,
+  kTimeAbs,
+  kTimeRel,
+  kLat,
+  kLon,
+  kAlt,
+  kSpeed,
+  kSats,
+  kHAcc,
+  kVAcc,
+  kYaw,
+  kPitch,
+  kRoll,
+  kPhoto
+};
 
 struct Column {
   Role role = Role::kNone;
@@ -94,10 +109,14 @@ bool Classify(const ColumnName& c, Column* col, std::string* why) {
   const std::string& n = c.name;
   const std::string& u = c.unit;
   if (In(n, {"latitude", "lat", "lat_deg", "gps_lat", "gps_latitude"})) return col->role = Role::kLat, true;
-  if (In(n, {"longitude", "lon", "lng", "long", "lon_deg", "gps_lon", "gps_lng", "gps_longitude"})) return col->role = Role::kLon, true;
-  if (In(n, {"datetime", "date_time", "timestamp", "time_utc", "utc", "utc_time", "gps_time", "date", "time", "t", "time_s", "time_ms", "t_s", "t_ns", "timestamp_ms", "timestamp_s"})) {
+  if (In(n, {"longitude", "lon", "lng", "long", "lon_deg", "gps_lon", "gps_lng", "gps_longitude"}))
+    return col->role = Role::kLon, true;
+  if (In(n, {"datetime", "date_time", "timestamp", "time_utc", "utc", "utc_time", "gps_time", "date", "time", "t",
+             "time_s", "time_ms", "t_s", "t_ns", "timestamp_ms", "timestamp_s"})) {
     // AirData: "datetime(utc)" is absolute, "time(millisecond)" is since the flight started.
-    if (In(n, {"time", "t", "time_s", "time_ms", "t_s"}) && (u == "millisecond" || u == "ms" || u == "s" || n == "time_s" || n == "time_ms" || n == "t_s") && n != "timestamp") {
+    if (In(n, {"time", "t", "time_s", "time_ms", "t_s"}) &&
+        (u == "millisecond" || u == "ms" || u == "s" || n == "time_s" || n == "time_ms" || n == "t_s") &&
+        n != "timestamp") {
       double sec = TimeUnitSeconds(u);
       if (sec == 0) sec = n == "time_ms" ? 1e-3 : 1;
       col->role = Role::kTimeRel;
@@ -108,18 +127,32 @@ bool Classify(const ColumnName& c, Column* col, std::string* why) {
     col->scale = n == "t_ns" ? 1e-9 : n == "timestamp_ms" ? 1e-3 : TimeUnitSeconds(u);  // 0: decide from the values
     return true;
   }
-  struct AltName { const char* name; AltitudeReference ref; int rank; };
+  struct AltName {
+    const char* name;
+    AltitudeReference ref;
+    int rank;
+  };
   static const AltName kAlts[] = {
-      {"altitude_above_sealevel", AltitudeReference::kAmsl, 4}, {"alt_msl", AltitudeReference::kAmsl, 4},
-      {"altitude_msl", AltitudeReference::kAmsl, 4}, {"altitude_amsl", AltitudeReference::kAmsl, 4},
-      {"amsl", AltitudeReference::kAmsl, 4}, {"msl", AltitudeReference::kAmsl, 4},
-      {"elevation", AltitudeReference::kAmsl, 4}, {"ele", AltitudeReference::kAmsl, 4},
-      {"alt_ellipsoid", AltitudeReference::kEllipsoid, 3}, {"ellipsoid_height", AltitudeReference::kEllipsoid, 3},
-      {"height_ellipsoid", AltitudeReference::kEllipsoid, 3}, {"hae", AltitudeReference::kEllipsoid, 3},
+      {"altitude_above_sealevel", AltitudeReference::kAmsl, 4},
+      {"alt_msl", AltitudeReference::kAmsl, 4},
+      {"altitude_msl", AltitudeReference::kAmsl, 4},
+      {"altitude_amsl", AltitudeReference::kAmsl, 4},
+      {"amsl", AltitudeReference::kAmsl, 4},
+      {"msl", AltitudeReference::kAmsl, 4},
+      {"elevation", AltitudeReference::kAmsl, 4},
+      {"ele", AltitudeReference::kAmsl, 4},
+      {"alt_ellipsoid", AltitudeReference::kEllipsoid, 3},
+      {"ellipsoid_height", AltitudeReference::kEllipsoid, 3},
+      {"height_ellipsoid", AltitudeReference::kEllipsoid, 3},
+      {"hae", AltitudeReference::kEllipsoid, 3},
       {"altitude_wgs84", AltitudeReference::kEllipsoid, 3},
-      {"alt", AltitudeReference::kUnknown, 2}, {"altitude", AltitudeReference::kUnknown, 2}, {"alt_m", AltitudeReference::kUnknown, 2},
-      {"height_above_takeoff", AltitudeReference::kTakeoff, 1}, {"rel_alt", AltitudeReference::kTakeoff, 1},
-      {"relative_altitude", AltitudeReference::kTakeoff, 1}, {"height", AltitudeReference::kTakeoff, 1},
+      {"alt", AltitudeReference::kUnknown, 2},
+      {"altitude", AltitudeReference::kUnknown, 2},
+      {"alt_m", AltitudeReference::kUnknown, 2},
+      {"height_above_takeoff", AltitudeReference::kTakeoff, 1},
+      {"rel_alt", AltitudeReference::kTakeoff, 1},
+      {"relative_altitude", AltitudeReference::kTakeoff, 1},
+      {"height", AltitudeReference::kTakeoff, 1},
   };
   for (const AltName& a : kAlts) {
     if (n != a.name) continue;
@@ -133,7 +166,8 @@ bool Classify(const ColumnName& c, Column* col, std::string* why) {
     if (!SpeedScale(u, &col->scale)) return *why = "unknown speed unit '" + u + "'", false;
     return col->role = Role::kSpeed, true;
   }
-  if (In(n, {"satellites", "sats", "num_sats", "nsat", "numsat", "satellite_count"})) return col->role = Role::kSats, true;
+  if (In(n, {"satellites", "sats", "num_sats", "nsat", "numsat", "satellite_count"}))
+    return col->role = Role::kSats, true;
   if (In(n, {"h_acc", "hacc", "h_acc_m", "horizontal_accuracy"})) {
     if (!LengthScale(u, &col->scale)) return *why = "unknown length unit '" + u + "'", false;
     return col->role = Role::kHAcc, true;
@@ -143,9 +177,12 @@ bool Classify(const ColumnName& c, Column* col, std::string* why) {
     return col->role = Role::kVAcc, true;
   }
   Role angle = Role::kNone;
-  if (In(n, {"compass_heading", "yaw", "heading"})) angle = Role::kYaw;
-  else if (n == "pitch") angle = Role::kPitch;
-  else if (n == "roll") angle = Role::kRoll;
+  if (In(n, {"compass_heading", "yaw", "heading"}))
+    angle = Role::kYaw;
+  else if (n == "pitch")
+    angle = Role::kPitch;
+  else if (n == "roll")
+    angle = Role::kRoll;
   if (angle != Role::kNone) {
     if (!AngleScale(u, &col->scale)) return *why = "unknown angle unit '" + u + "'", false;
     return col->role = angle, true;
@@ -223,7 +260,8 @@ HeaderLine ReadHeaderLine(CsvLines& lines) {
     const std::string_view t = Trim(lines.line());
     if (t.empty() || t.front() == '#') continue;
     if (t.find(',') == std::string_view::npos && t.find(';') != std::string_view::npos) h.delim = ';';
-    if (!flightlog::SplitCsvLine(lines.line(), &h.fields, &bad_col, h.delim)) lines.Fail(bad_col, "unterminated quote in header");
+    if (!flightlog::SplitCsvLine(lines.line(), &h.fields, &bad_col, h.delim))
+      lines.Fail(bad_col, "unterminated quote in header");
     h.line_no = lines.line_no();
     return h;
   }
@@ -281,7 +319,10 @@ Roles PickRoles(Columns* columns, const std::string& path, int64_t header_line) 
   Roles r;
   r.lat = columns->Find(Role::kLat);
   r.lon = columns->Find(Role::kLon);
-  if (!r.lat || !r.lon) throw InputError(InputLocation::Line(path, header_line), std::string("header has no ") + (!r.lat ? "latitude" : "longitude") + " column (looked for lat/latitude, lon/lng/longitude)");
+  if (!r.lat || !r.lon)
+    throw InputError(InputLocation::Line(path, header_line),
+                     std::string("header has no ") + (!r.lat ? "latitude" : "longitude") +
+                         " column (looked for lat/latitude, lon/lng/longitude)");
   r.t_abs = columns->Find(Role::kTimeAbs);
   r.t_rel = columns->Find(Role::kTimeRel);
   r.alt = columns->Find(Role::kAlt);
@@ -295,7 +336,8 @@ Roles PickRoles(Columns* columns, const std::string& path, int64_t header_line) 
   r.photo = columns->Find(Role::kPhoto);
   r.attitude = r.yaw && r.pitch && r.roll;
   for (const Column& c : columns->used)
-    if ((c.role == Role::kAlt && &c != r.alt) || (c.role != Role::kAlt && &c != columns->Find(c.role))) columns->ignored.push_back(c.header + " (duplicate role)");
+    if ((c.role == Role::kAlt && &c != r.alt) || (c.role != Role::kAlt && &c != columns->Find(c.role)))
+      columns->ignored.push_back(c.header + " (duplicate role)");
   return r;
 }
 
@@ -320,7 +362,9 @@ struct RowFields {
     double v;
     if (!flightlog::ParseDouble(s, &v)) Fail(c, "column '" + c->header + "': not a number: '" + std::string(s) + "'");
     v *= c->scale;
-    if (v < lo || v > hi) Fail(c, "column '" + c->header + "': " + flightlog::FormatDouble(v) + " outside [" + flightlog::FormatDouble(lo) + ", " + flightlog::FormatDouble(hi) + "]");
+    if (v < lo || v > hi)
+      Fail(c, "column '" + c->header + "': " + flightlog::FormatDouble(v) + " outside [" + flightlog::FormatDouble(lo) +
+                  ", " + flightlog::FormatDouble(hi) + "]");
     return v;
   }
 };
@@ -334,14 +378,17 @@ int64_t ParseAbsTime(const RowFields& row, const Column* t_abs, AbsTimeFormat* f
     format->is_text = !flightlog::ParseDouble(s, &v);
     if (!format->is_text && format->scale == 0) format->scale = EpochScaleFromMagnitude(v);
     if (!format->is_text && format->scale == 0)
-      row.Fail(t_abs, "column '" + t_abs->header + "': number " + s + " is not an epoch time in s, ms, us or ns (name the unit, e.g. time(s), for a relative clock)");
+      row.Fail(t_abs,
+               "column '" + t_abs->header + "': number " + s +
+                   " is not an epoch time in s, ms, us or ns (name the unit, e.g. time(s), for a relative clock)");
     format->decided = true;
   }
   if (format->is_text) {
     if (s.size() >= 10 && s[4] == '/' && s[7] == '/') s[4] = s[7] = '-';  // "2019/05/03 14:22:11"
     int64_t ns;
     bool has_zone;
-    if (!flightlog::ParseIso8601(s, &ns, &has_zone)) row.Fail(t_abs, "column '" + t_abs->header + "': not an ISO-8601 date-time: '" + s + "'");
+    if (!flightlog::ParseIso8601(s, &ns, &has_zone))
+      row.Fail(t_abs, "column '" + t_abs->header + "': not an ISO-8601 date-time: '" + s + "'");
     format->n_no_zone += !has_zone;
     return ns;
   }
@@ -349,7 +396,8 @@ int64_t ParseAbsTime(const RowFields& row, const Column* t_abs, AbsTimeFormat* f
   if (!flightlog::ParseDouble(s, &v)) row.Fail(t_abs, "column '" + t_abs->header + "': not a number: '" + s + "'");
   const double sec = v * format->scale;
   // 2001-01-01 .. 2200-01-01 (also keeps the nanosecond value inside int64).
-  if (!(sec >= 978307200.0 && sec < 7258118400.0)) row.Fail(t_abs, "column '" + t_abs->header + "': epoch time " + s + " is not between 2001 and 2200");
+  if (!(sec >= 978307200.0 && sec < 7258118400.0))
+    row.Fail(t_abs, "column '" + t_abs->header + "': epoch time " + s + " is not between 2001 and 2200");
   return static_cast<int64_t>(std::llround(sec * 1e6)) * 1000;  // microsecond precision of a double epoch
 }
 
@@ -363,7 +411,8 @@ Row ParseRow(const RowFields& row, const Roles& c, AbsTimeFormat* abs_format) {
   }
   const auto la = row.Number(c.lat, -90, 90);
   const auto lo = row.Number(c.lon, -180, 180);
-  if (la.has_value() != lo.has_value()) row.Fail(la ? c.lon : c.lat, "latitude and longitude must be both set or both empty");
+  if (la.has_value() != lo.has_value())
+    row.Fail(la ? c.lon : c.lat, "latitude and longitude must be both set or both empty");
   r.has_pos = la.has_value() && !(*la == 0 && *lo == 0);
   if (r.has_pos) {
     r.fix.lat_deg = *la;
@@ -409,9 +458,12 @@ std::vector<Row> ReadRows(CsvLines& lines, const HeaderLine& header, const Roles
   while (lines.Next()) {
     const std::string_view t = Trim(lines.line());
     if (t.empty() || t.front() == '#') continue;
-    if (!flightlog::SplitCsvLine(lines.line(), &fields, &bad_col, header.delim)) lines.Fail(bad_col, "unterminated quote");
+    if (!flightlog::SplitCsvLine(lines.line(), &fields, &bad_col, header.delim))
+      lines.Fail(bad_col, "unterminated quote");
     if (fields.size() == header_n + 1 && Trim(fields.back().text).empty()) fields.pop_back();  // trailing delimiter
-    if (fields.size() != header_n) lines.Fail(-1, "expected " + std::to_string(header_n) + " fields (as in the header), got " + std::to_string(fields.size()));
+    if (fields.size() != header_n)
+      lines.Fail(-1, "expected " + std::to_string(header_n) + " fields (as in the header), got " +
+                         std::to_string(fields.size()));
     const Row r = ParseRow(RowFields{lines, fields}, roles, abs_format);
     if (!r.has_pos) ++*dropped_no_pos;
     rows.push_back(r);
@@ -431,12 +483,15 @@ std::vector<int64_t> AnchorRelativeClock(const std::vector<Row>& rows, const Rol
     hi = std::min(hi, *r.t_abs_ns + 1000000000 - rel_ns);
   }
   if (lo >= hi) {
-    track->notes.push_back("'" + c.t_rel->header + "' and '" + c.t_abs->header + "' disagree by more than their 1 s resolution; t_ns from '" + c.t_abs->header + "' alone (1 s steps)");
+    track->notes.push_back("'" + c.t_rel->header + "' and '" + c.t_abs->header +
+                           "' disagree by more than their 1 s resolution; t_ns from '" + c.t_abs->header +
+                           "' alone (1 s steps)");
     for (size_t i = 0; i < rows.size(); ++i) t_ns[i] = *rows[i].t_abs_ns;
   } else {
     for (size_t i = 0; i < rows.size(); ++i) t_ns[i] = lo + static_cast<int64_t>(std::llround(*rows[i].t_rel_s * 1e9));
-    track->notes.push_back("t_ns = UTC from '" + c.t_abs->header + "' (1 s resolution) anchored to '" + c.t_rel->header + "': anchor uncertainty " +
-                           flightlog::FormatDouble((hi - lo) * 1e-9) + " s");
+    track->notes.push_back("t_ns = UTC from '" + c.t_abs->header + "' (1 s resolution) anchored to '" +
+                           c.t_rel->header + "': anchor uncertainty " + flightlog::FormatDouble((hi - lo) * 1e-9) +
+                           " s");
   }
   return t_ns;
 }
@@ -447,15 +502,21 @@ std::vector<int64_t> AnchorRelativeClock(const std::vector<Row>& rows, const Rol
 std::vector<int64_t> RowTimes(const std::vector<Row>& rows, const Roles& c, const AbsTimeFormat& abs_format,
                               const std::string& path, FlightTrack* track) {
   std::vector<int64_t> t_ns(rows.size(), 0);
-  const bool all_abs = c.t_abs && std::all_of(rows.begin(), rows.end(), [](const Row& r) { return r.t_abs_ns.has_value(); });
-  const bool all_rel = c.t_rel && std::all_of(rows.begin(), rows.end(), [](const Row& r) { return r.t_rel_s.has_value(); });
+  const bool all_abs =
+      c.t_abs && std::all_of(rows.begin(), rows.end(), [](const Row& r) { return r.t_abs_ns.has_value(); });
+  const bool all_rel =
+      c.t_rel && std::all_of(rows.begin(), rows.end(), [](const Row& r) { return r.t_rel_s.has_value(); });
   if (c.t_abs && !all_abs)
     for (const Row& r : rows)
-      if (!r.t_abs_ns) throw InputError(InputLocation::Line(path, r.line, static_cast<int64_t>(c.t_abs->index) + 1), "empty time in column '" + c.t_abs->header + "'");
+      if (!r.t_abs_ns)
+        throw InputError(InputLocation::Line(path, r.line, static_cast<int64_t>(c.t_abs->index) + 1),
+                         "empty time in column '" + c.t_abs->header + "'");
   if (c.t_rel && !all_rel && !all_abs)
     for (const Row& r : rows)
-      if (!r.t_rel_s) throw InputError(InputLocation::Line(path, r.line), "empty time in column '" + c.t_rel->header + "'");
-  const bool whole_seconds = all_abs && std::all_of(rows.begin(), rows.end(), [](const Row& r) { return *r.t_abs_ns % 1000000000 == 0; });
+      if (!r.t_rel_s)
+        throw InputError(InputLocation::Line(path, r.line), "empty time in column '" + c.t_rel->header + "'");
+  const bool whole_seconds =
+      all_abs && std::all_of(rows.begin(), rows.end(), [](const Row& r) { return *r.t_abs_ns % 1000000000 == 0; });
   if (rows.empty()) {
     // nothing to time
   } else if (all_abs && all_rel && whole_seconds) {
@@ -464,8 +525,11 @@ std::vector<int64_t> RowTimes(const std::vector<Row>& rows, const Roles& c, cons
   } else if (all_abs) {
     for (size_t i = 0; i < rows.size(); ++i) t_ns[i] = *rows[i].t_abs_ns;
     track->time_base = TimeBase::kUtc;
-    track->notes.push_back("t_ns = UTC from column '" + c.t_abs->header + "'" + (abs_format.is_text ? std::string(" (ISO-8601)") : " (epoch, unit " + flightlog::FormatDouble(abs_format.scale) + " s)"));
-    if (abs_format.n_no_zone > 0) track->notes.push_back(std::to_string(abs_format.n_no_zone) + " date-times without a zone, taken as UTC");
+    track->notes.push_back("t_ns = UTC from column '" + c.t_abs->header + "'" +
+                           (abs_format.is_text ? std::string(" (ISO-8601)")
+                                               : " (epoch, unit " + flightlog::FormatDouble(abs_format.scale) + " s)"));
+    if (abs_format.n_no_zone > 0)
+      track->notes.push_back(std::to_string(abs_format.n_no_zone) + " date-times without a zone, taken as UTC");
   } else if (all_rel) {
     for (size_t i = 0; i < rows.size(); ++i) t_ns[i] = static_cast<int64_t>(std::llround(*rows[i].t_rel_s * 1e9));
     track->time_base = TimeBase::kBoot;
@@ -494,7 +558,8 @@ void AddSamples(std::vector<Row>& rows, const std::vector<int64_t>& t_ns, Flight
       CameraEvent e;
       e.t_ns = t_ns[i];
       e.sequence = photo_seq++;
-      if (r.has_pos) e.lat_deg = r.fix.lat_deg, e.lon_deg = r.fix.lon_deg, e.alt_m = r.fix.alt_m, e.alt_ref = r.fix.alt_ref;
+      if (r.has_pos)
+        e.lat_deg = r.fix.lat_deg, e.lon_deg = r.fix.lon_deg, e.alt_m = r.fix.alt_m, e.alt_ref = r.fix.alt_ref;
       track->camera_events.push_back(e);
     }
     prev_photo = r.photo;
@@ -503,12 +568,20 @@ void AddSamples(std::vector<Row>& rows, const std::vector<int64_t>& t_ns, Flight
 
 /// Notes on which columns were used and converted, what was dropped and what was ignored.
 void AddColumnNotes(const Roles& c, const Columns& columns, int64_t dropped_no_pos, FlightTrack* track) {
-  if (c.alt) track->notes.push_back("altitude from column '" + c.alt->header + "' (" + ToString(c.alt->alt_ref) + (c.alt->scale != 1 ? ", feet converted to metres" : "") + ")");
-  else track->notes.push_back("no altitude column");
+  if (c.alt)
+    track->notes.push_back("altitude from column '" + c.alt->header + "' (" + ToString(c.alt->alt_ref) +
+                           (c.alt->scale != 1 ? ", feet converted to metres" : "") + ")");
+  else
+    track->notes.push_back("no altitude column");
   if (c.speed && c.speed->scale != 1) track->notes.push_back("speed from '" + c.speed->header + "' converted to m/s");
-  if (c.attitude) track->notes.push_back("attitude from '" + c.yaw->header + "', '" + c.pitch->header + "', '" + c.roll->header + "'");
-  if (c.photo) track->notes.push_back(std::to_string(track->camera_events.size()) + " camera events from rising edges of '" + c.photo->header + "'");
-  if (dropped_no_pos > 0) track->notes.push_back(std::to_string(dropped_no_pos) + " rows without a position (empty or 0,0) dropped");
+  if (c.attitude)
+    track->notes.push_back("attitude from '" + c.yaw->header + "', '" + c.pitch->header + "', '" + c.roll->header +
+                           "'");
+  if (c.photo)
+    track->notes.push_back(std::to_string(track->camera_events.size()) + " camera events from rising edges of '" +
+                           c.photo->header + "'");
+  if (dropped_no_pos > 0)
+    track->notes.push_back(std::to_string(dropped_no_pos) + " rows without a position (empty or 0,0) dropped");
   const std::vector<std::string>& ignored = columns.ignored;
   if (!ignored.empty()) {
     std::string list;

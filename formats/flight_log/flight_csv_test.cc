@@ -36,9 +36,10 @@ void ExpectError(const std::string& text, int64_t line, int64_t column, const st
 }
 
 TEST(FlightCsv, Nominal) {  // ISO-8601 times, generic names
-  const FlightTrack t = Read("timestamp,latitude,longitude,altitude,speed(km/h),sats,battery\n"
-                             "2015-12-11T15:43:13.5+01:00,46.5,14.25,300.5,36,12,90\n"
-                             "2015-12-11T14:43:14Z,46.6,14.35,301.5,18,11,89\n");
+  const FlightTrack t = Read(
+      "timestamp,latitude,longitude,altitude,speed(km/h),sats,battery\n"
+      "2015-12-11T15:43:13.5+01:00,46.5,14.25,300.5,36,12,90\n"
+      "2015-12-11T14:43:14Z,46.6,14.35,301.5,18,11,89\n");
   EXPECT_EQ(t.format, "csv");
   EXPECT_EQ(t.time_base, TimeBase::kUtc);
   ASSERT_EQ(t.fixes.size(), 2u);
@@ -79,10 +80,14 @@ TEST(FlightCsv, NoTimeColumnSaysSo) {
 // An AirData export: 1 s datetime(utc), 100 ms time(millisecond), feet and mph, photo flag.
 TEST(FlightCsv, AirData) {
   std::string csv =
-      "time(millisecond),datetime(utc),latitude,longitude,height_above_takeoff(feet),height_above_ground_at_drone_location(feet),"
-      "ground_elevation_at_drone_location(feet),altitude_above_seaLevel(feet),height_sonar(feet),speed(mph),distance(feet),"
-      "mileage(feet),satellites,gpslevel,voltage(v),max_altitude(feet),max_ascent(feet),max_speed(mph),max_distance(feet),"
-      " xSpeed(mph), ySpeed(mph), zSpeed(mph), compass_heading(degrees), pitch(degrees), roll(degrees),isPhoto,isVideo\n";
+      "time(millisecond),datetime(utc),latitude,longitude,height_above_takeoff(feet),height_above_ground_at_drone_"
+      "location(feet),"
+      "ground_elevation_at_drone_location(feet),altitude_above_seaLevel(feet),height_sonar(feet),speed(mph),distance("
+      "feet),"
+      "mileage(feet),satellites,gpslevel,voltage(v),max_altitude(feet),max_ascent(feet),max_speed(mph),max_distance("
+      "feet),"
+      " xSpeed(mph), ySpeed(mph), zSpeed(mph), compass_heading(degrees), pitch(degrees), "
+      "roll(degrees),isPhoto,isVideo\n";
   // True UTC of time 0 is 2019-05-03T14:22:10.750Z: rows at 0..2000 ms every 100 ms.
   const int64_t utc0_ns = 1556893330750000000LL;
   for (int i = 0; i <= 20; ++i) {
@@ -90,8 +95,8 @@ TEST(FlightCsv, AirData) {
     const int64_t utc_s = (utc0_ns + t_ms * 1000000) / 1000000000;  // truncated to the second, as AirData writes
     const int64_t sod = utc_s % 86400;
     char dt[64];
-    std::snprintf(dt, sizeof(dt), "2019-05-03 %02lld:%02lld:%02lld", static_cast<long long>(sod / 3600), static_cast<long long>(sod / 60 % 60),
-                  static_cast<long long>(sod % 60));
+    std::snprintf(dt, sizeof(dt), "2019-05-03 %02lld:%02lld:%02lld", static_cast<long long>(sod / 3600),
+                  static_cast<long long>(sod / 60 % 60), static_cast<long long>(sod % 60));
     const bool photo = i >= 5 && i <= 7;
     csv += std::to_string(t_ms) + "," + dt + "," + (i == 0 ? "0.0,0.0" : "46.05" + std::to_string(i) + ",14.5") +
            ",32.8084,0,0,1000,0,22.3694,0,0,14,4,15.4,0,0,0,0,0,0,0,90,-5,2," + (photo ? "1" : "0") + ",0\n";
@@ -124,17 +129,24 @@ TEST(FlightCsv, EmptyFile) { ExpectError("\n# comment\n", 1, -1, "empty file"); 
 TEST(FlightCsv, WrongFieldCount) { ExpectError("lat,lon,alt\n1,2,3\n1,2\n", 3, -1, "expected 3 fields"); }
 TEST(FlightCsv, BadNumber) { ExpectError("lat,lon\n1,2\n1,x2\n", 3, 3, "column 'lon': not a number"); }
 TEST(FlightCsv, LatitudeOutOfRange) { ExpectError("lat,lon\n100,2\n", 2, 1, "outside [-90, 90]"); }
-TEST(FlightCsv, BadIsoTime) { ExpectError("datetime,lat,lon\n2019-05-03T14:22:11Z,1,2\n2019-05-33T14:22:11Z,1,2\n", 3, 1, "not an ISO-8601"); }
+TEST(FlightCsv, BadIsoTime) {
+  ExpectError("datetime,lat,lon\n2019-05-03T14:22:11Z,1,2\n2019-05-33T14:22:11Z,1,2\n", 3, 1, "not an ISO-8601");
+}
 TEST(FlightCsv, EpochOfUnknownUnit) { ExpectError("timestamp,lat,lon\n12345,1,2\n", 2, 1, "not an epoch time"); }
-TEST(FlightCsv, UnknownUnit) { ExpectError("lat,lon,altitude(furlongs)\n1,2,3\n", 1, 9, "unknown length unit 'furlongs'"); }
+TEST(FlightCsv, UnknownUnit) {
+  ExpectError("lat,lon,altitude(furlongs)\n1,2,3\n", 1, 9, "unknown length unit 'furlongs'");
+}
 TEST(FlightCsv, HalfPosition) { ExpectError("lat,lon\n1,\n", 2, 3, "both set or both empty"); }
 TEST(FlightCsv, NoPositions) { ExpectError("lat,lon\n,\n", 1, -1, "no row has a position"); }
 
 TEST(FlightCsv, TruncatedAndBitFlippedCopies) {
-  std::string csv = "time(millisecond),datetime(utc),latitude,longitude,altitude_above_seaLevel(feet),speed(mph),isPhoto\n";
+  std::string csv =
+      "time(millisecond),datetime(utc),latitude,longitude,altitude_above_seaLevel(feet),speed(mph),isPhoto\n";
   for (int i = 0; i < 200; ++i)
-    csv += std::to_string(i * 100) + ",2019-05-03 14:22:" + std::to_string(10 + i / 10) + "," + std::to_string(46 + i * 1e-5) + ",14.5,1000,20," + (i % 30 == 0 ? "1" : "0") + "\n";
-  const auto st = testing::Mutate(csv, [](std::istream& in) { return ReadFlightCsv(in, "m.csv"); }, 30, 300, 7);
+    csv += std::to_string(i * 100) + ",2019-05-03 14:22:" + std::to_string(10 + i / 10) + "," +
+           std::to_string(46 + i * 1e-5) + ",14.5,1000,20," + (i % 30 == 0 ? "1" : "0") + "\n";
+  const auto st = testing::Mutate(
+      csv, [](std::istream& in) { return ReadFlightCsv(in, "m.csv"); }, 30, 300, 7);
   EXPECT_GT(st.input_errors, 10);
   EXPECT_EQ(st.input_errors_with_line, st.input_errors);
 }

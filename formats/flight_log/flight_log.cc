@@ -61,8 +61,7 @@ FlightTrack ReadFlightLog(const fs::path& path, const std::string& format_in) {
   const std::string format = format_in == "auto" ? DetectFlightLogFormat(path) : format_in;
   if (format == "csv") {
     // Our own track CSV announces itself; anything else is a third-party CSV.
-    return Lower(Head(path, 64)).rfind("# roadsurvey flight track", 0) == 0 ? ReadTrackCsv(path)
-                                                                             : ReadFlightCsv(path);
+    return Lower(Head(path, 64)).rfind("# roadsurvey flight track", 0) == 0 ? ReadTrackCsv(path) : ReadFlightCsv(path);
   }
   if (format == "airdata-csv") return ReadFlightCsv(path);
   if (format == "gpx") return ReadGpx(path);

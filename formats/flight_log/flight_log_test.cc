@@ -12,9 +12,7 @@ namespace rs {
 namespace {
 namespace fs = std::filesystem;
 
-fs::path DataDir() {
-  return rs::test::DataRoot();
-}
+fs::path DataDir() { return rs::test::DataRoot(); }
 
 // One real sample per format: detection must name the right reader and the read must give fixes.
 TEST(FlightLog, DetectsAndReadsEveryFormat) {
@@ -56,9 +54,10 @@ TEST(FlightLog, UnknownFileNamesFile) {
 
 TEST(FlightLog, OwnCsvRoundTrip) {
   const fs::path p = fs::temp_directory_path() / "rs_flight_log_test.csv";
-  std::ofstream(p) << "# roadsurvey flight track v1, time_base=utc\n"
-                      "t_ns,type,lat_deg,lon_deg,alt_m,alt_ref,fix_type,satellites,h_acc_m,v_acc_m,qw,qx,qy,qz,sequence\n"
-                      "1000000000,gnss,48.1,11.5,520.5,amsl,3,12,1.5,2.5,,,,,\n";
+  std::ofstream(p)
+      << "# roadsurvey flight track v1, time_base=utc\n"
+         "t_ns,type,lat_deg,lon_deg,alt_m,alt_ref,fix_type,satellites,h_acc_m,v_acc_m,qw,qx,qy,qz,sequence\n"
+         "1000000000,gnss,48.1,11.5,520.5,amsl,3,12,1.5,2.5,,,,,\n";
   EXPECT_EQ(DetectFlightLogFormat(p), "csv");
   const auto track = ReadFlightLog(p);
   ASSERT_EQ(track.fixes.size(), 1u);

@@ -43,7 +43,7 @@ bool SplitCsvLine(std::string_view line, std::vector<CsvField>* fields, int64_t*
     }
     fields->push_back(std::move(f));
     if (i >= n) break;
-    ++i;  // skip the comma
+    ++i;           // skip the comma
     if (i == n) {  // trailing comma: one more empty field
       fields->push_back({std::string(), static_cast<int64_t>(i) + 1});
       break;

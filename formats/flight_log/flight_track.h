@@ -26,10 +26,10 @@ struct GnssFix {
   double lon_deg = kNaN;
   double alt_m = kNaN;
   AltitudeReference alt_ref = AltitudeReference::kUnknown;
-  int fix_type = -1;     ///< 0 none, 2 2D, 3 3D, 4 DGPS, 5 RTK float, 6 RTK fixed; -1 unknown
-  int satellites = -1;   ///< -1 unknown
-  double h_acc_m = kNaN; ///< horizontal accuracy (1 sigma) where the log gives it
-  double v_acc_m = kNaN; ///< vertical accuracy (1 sigma) where the log gives it
+  int fix_type = -1;      ///< 0 none, 2 2D, 3 3D, 4 DGPS, 5 RTK float, 6 RTK fixed; -1 unknown
+  int satellites = -1;    ///< -1 unknown
+  double h_acc_m = kNaN;  ///< horizontal accuracy (1 sigma) where the log gives it
+  double v_acc_m = kNaN;  ///< vertical accuracy (1 sigma) where the log gives it
   double ground_speed_m_s = kNaN;
 };
 

@@ -31,7 +31,8 @@ class LineIndex {
     if (offset < 0) return InputLocation::File(path);
     const auto it = std::upper_bound(starts_.begin(), starts_.end(), static_cast<size_t>(offset));
     const size_t line = static_cast<size_t>(it - starts_.begin());
-    return InputLocation::Line(path, static_cast<int64_t>(line), offset - static_cast<ptrdiff_t>(starts_[line - 1]) + 1);
+    return InputLocation::Line(path, static_cast<int64_t>(line),
+                               offset - static_cast<ptrdiff_t>(starts_[line - 1]) + 1);
   }
 
  private:
@@ -59,7 +60,8 @@ FlightTrack ReadGpx(std::istream& in, const std::string& path) {
     char chunk[65536];
     while (in.read(chunk, sizeof(chunk)) || in.gcount() > 0) {
       buf.append(chunk, static_cast<size_t>(in.gcount()));
-      if (buf.size() > kMaxGpxBytes) throw InputError(InputLocation::File(path), "larger than 1 GiB: refusing to parse as GPX");
+      if (buf.size() > kMaxGpxBytes)
+        throw InputError(InputLocation::File(path), "larger than 1 GiB: refusing to parse as GPX");
     }
     if (in.bad()) throw InputError(InputLocation::File(path), "read error");
   }
@@ -75,7 +77,8 @@ FlightTrack ReadGpx(std::istream& in, const std::string& path) {
 
   const pugi::xml_node root = doc.document_element();
   if (!root || LocalName(root) != "gpx")
-    throw InputError(root ? loc(root) : InputLocation::File(path), std::string("not a GPX file: root element is <") + (root ? root.name() : "") + ">, expected <gpx>");
+    throw InputError(root ? loc(root) : InputLocation::File(path), std::string("not a GPX file: root element is <") +
+                                                                       (root ? root.name() : "") + ">, expected <gpx>");
 
   FlightTrack track;
   track.source_path = path;
@@ -103,13 +106,17 @@ FlightTrack ReadGpx(std::istream& in, const std::string& path) {
   }
   const std::vector<pugi::xml_node>* pts = &trkpts;
   const char* kind = "trkpt";
-  if (trkpts.empty() && !rtepts.empty()) pts = &rtepts, kind = "rtept";
-  else if (trkpts.empty() && rtepts.empty()) pts = &wpts, kind = "wpt";
+  if (trkpts.empty() && !rtepts.empty())
+    pts = &rtepts, kind = "rtept";
+  else if (trkpts.empty() && rtepts.empty())
+    pts = &wpts, kind = "wpt";
   if (pts->empty()) throw InputError(loc(root), "GPX file has no track, route or waypoint points");
   track.notes.push_back("fixes from " + std::to_string(pts->size()) + " <" + kind + "> points");
   if (pts != &trkpts && !trkpts.empty()) track.notes.push_back(std::to_string(trkpts.size()) + " <trkpt> ignored");
-  if (pts != &rtepts && !rtepts.empty()) track.notes.push_back(std::to_string(rtepts.size()) + " <rtept> ignored (planned route, not the flown track)");
-  if (pts != &wpts && !wpts.empty()) track.notes.push_back(std::to_string(wpts.size()) + " <wpt> ignored (waypoints, not the flown track)");
+  if (pts != &rtepts && !rtepts.empty())
+    track.notes.push_back(std::to_string(rtepts.size()) + " <rtept> ignored (planned route, not the flown track)");
+  if (pts != &wpts && !wpts.empty())
+    track.notes.push_back(std::to_string(wpts.size()) + " <wpt> ignored (waypoints, not the flown track)");
 
   int64_t n_timed = 0, n_untimed = 0, n_no_zone = 0, n_no_ele = 0, n_sentinel = 0;
   std::vector<bool> timed;
@@ -119,9 +126,12 @@ FlightTrack ReadGpx(std::istream& in, const std::string& path) {
       const pugi::xml_attribute a = p.attribute(attr);
       double v;
       if (!a) throw InputError(loc(p), std::string("<") + kind + "> lacks the " + attr + " attribute");
-      if (!flightlog::ParseDouble(a.value(), &v)) throw InputError(loc(p), std::string(attr) + "=\"" + a.value() + "\" is not a number");
+      if (!flightlog::ParseDouble(a.value(), &v))
+        throw InputError(loc(p), std::string(attr) + "=\"" + a.value() + "\" is not a number");
       const double lim = attr[1] == 'a' ? 90.0 : 180.0;
-      if (v < -lim || v > lim) throw InputError(loc(p), std::string(attr) + "=" + a.value() + " outside [-" + flightlog::FormatDouble(lim) + ", " + flightlog::FormatDouble(lim) + "]");
+      if (v < -lim || v > lim)
+        throw InputError(loc(p), std::string(attr) + "=" + a.value() + " outside [-" + flightlog::FormatDouble(lim) +
+                                     ", " + flightlog::FormatDouble(lim) + "]");
       (attr[1] == 'a' ? f.lat_deg : f.lon_deg) = v;
     }
     if (const pugi::xml_node ele = Child(p, "ele")) {
@@ -133,7 +143,8 @@ FlightTrack ReadGpx(std::istream& in, const std::string& path) {
     }
     if (const pugi::xml_node sat = Child(p, "sat")) {
       int64_t n;
-      if (!flightlog::ParseInt64(sat.child_value(), &n) || n < 0 || n > 1000) throw InputError(loc(sat), std::string("<sat> is not a satellite count: '") + sat.child_value() + "'");
+      if (!flightlog::ParseInt64(sat.child_value(), &n) || n < 0 || n > 1000)
+        throw InputError(loc(sat), std::string("<sat> is not a satellite count: '") + sat.child_value() + "'");
       f.satellites = static_cast<int>(n);
     }
     if (const pugi::xml_node fix = Child(p, "fix")) {
@@ -164,11 +175,13 @@ FlightTrack ReadGpx(std::istream& in, const std::string& path) {
   }
 
   if (n_sentinel > 0)
-    track.notes.push_back(std::to_string(n_sentinel) + " <time> values before 1980 (a logger's 'no time' sentinel) treated as missing");
+    track.notes.push_back(std::to_string(n_sentinel) +
+                          " <time> values before 1980 (a logger's 'no time' sentinel) treated as missing");
   if (n_timed == 0) {
     track.time_base = TimeBase::kBoot;
     for (size_t i = 0; i < track.fixes.size(); ++i) track.fixes[i].t_ns = static_cast<int64_t>(i);
-    track.notes.push_back("no point has a <time>: the track has NO time; t_ns is the point's index in the file (0, 1, 2, ...)");
+    track.notes.push_back(
+        "no point has a <time>: the track has NO time; t_ns is the point's index in the file (0, 1, 2, ...)");
   } else {
     track.time_base = TimeBase::kUtc;
     if (n_untimed > 0) {
@@ -178,7 +191,8 @@ FlightTrack ReadGpx(std::istream& in, const std::string& path) {
       track.fixes = std::move(kept);
       track.notes.push_back(std::to_string(n_untimed) + " points without <time> dropped");
     }
-    if (n_no_zone > 0) track.notes.push_back(std::to_string(n_no_zone) + " <time> values without a zone, taken as UTC (GPX spec)");
+    if (n_no_zone > 0)
+      track.notes.push_back(std::to_string(n_no_zone) + " <time> values without a zone, taken as UTC (GPX spec)");
   }
   track.notes.push_back("<ele> taken as height above mean sea level (devices write MSL although GPX says WGS84)");
   if (n_no_ele > 0) track.notes.push_back(std::to_string(n_no_ele) + " points without <ele>");

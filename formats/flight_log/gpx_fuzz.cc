@@ -11,7 +11,6 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   try {
     std::istringstream in(std::string(reinterpret_cast<const char*>(data), size));
     rs::ReadGpx(in, "fuzz.gpx");
-  } catch (const rs::InputError&) {
-  }
+  } catch (const rs::InputError&) {}
   return 0;
 }

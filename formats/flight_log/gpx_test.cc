@@ -36,15 +36,18 @@ void ExpectError(const std::string& text, int64_t line, int64_t column, const st
   }
 }
 
-constexpr const char* kHead = "<?xml version=\"1.0\"?>\n<gpx version=\"1.1\" creator=\"t\" xmlns=\"http://www.topografix.com/GPX/1/1\">\n";
+constexpr const char* kHead =
+    "<?xml version=\"1.0\"?>\n<gpx version=\"1.1\" creator=\"t\" xmlns=\"http://www.topografix.com/GPX/1/1\">\n";
 
 TEST(Gpx, Nominal) {
-  const FlightTrack t = Read(std::string(kHead) +
-                             "<trk><trkseg>\n"
-                             "<trkpt lat=\"57.011456\" lon=\"9.992872\"><ele>23.5536</ele><time>2015-12-11T15:43:13.000+01:00</time><sat>9</sat><fix>3d</fix></trkpt>\n"
-                             "<trkpt lat=\"57.01147\" lon=\"9.992874\"><ele>23.551199</ele><time>2015-12-11T14:43:13.994Z</time></trkpt>\n"
-                             "</trkseg><trkseg><trkpt lat=\"-1e-3\" lon=\"-179.5\"><time>2015-12-11T14:43:15Z</time></trkpt></trkseg></trk>\n"
-                             "<wpt lat=\"1\" lon=\"2\"/>\n</gpx>\n");
+  const FlightTrack t = Read(
+      std::string(kHead) +
+      "<trk><trkseg>\n"
+      "<trkpt lat=\"57.011456\" "
+      "lon=\"9.992872\"><ele>23.5536</ele><time>2015-12-11T15:43:13.000+01:00</time><sat>9</sat><fix>3d</fix></trkpt>\n"
+      "<trkpt lat=\"57.01147\" lon=\"9.992874\"><ele>23.551199</ele><time>2015-12-11T14:43:13.994Z</time></trkpt>\n"
+      "</trkseg><trkseg><trkpt lat=\"-1e-3\" lon=\"-179.5\"><time>2015-12-11T14:43:15Z</time></trkpt></trkseg></trk>\n"
+      "<wpt lat=\"1\" lon=\"2\"/>\n</gpx>\n");
   EXPECT_EQ(t.format, "gpx");
   EXPECT_EQ(t.time_base, TimeBase::kUtc);
   ASSERT_EQ(t.fixes.size(), 3u);
@@ -64,7 +67,9 @@ TEST(Gpx, Nominal) {
 }
 
 TEST(Gpx, NoTimeKeepsPointsAndSaysSo) {
-  const FlightTrack t = Read(std::string(kHead) + "<rte><rtept lat=\"1\" lon=\"2\"/><rtept lat=\"3\" lon=\"4\"/><rtept lat=\"5\" lon=\"6\"/></rte></gpx>");
+  const FlightTrack t =
+      Read(std::string(kHead) +
+           "<rte><rtept lat=\"1\" lon=\"2\"/><rtept lat=\"3\" lon=\"4\"/><rtept lat=\"5\" lon=\"6\"/></rte></gpx>");
   EXPECT_EQ(t.time_base, TimeBase::kBoot);
   ASSERT_EQ(t.fixes.size(), 3u);
   for (int i = 0; i < 3; ++i) {
@@ -75,16 +80,19 @@ TEST(Gpx, NoTimeKeepsPointsAndSaysSo) {
 }
 
 TEST(Gpx, UntimedPointsAmongTimedAreDroppedAndCounted) {
-  const FlightTrack t = Read(std::string(kHead) + "<trk><trkseg><trkpt lat=\"1\" lon=\"2\"><time>2013-05-18T08:23:04Z</time></trkpt>"
-                                                  "<trkpt lat=\"3\" lon=\"4\"/></trkseg></trk></gpx>");
+  const FlightTrack t = Read(std::string(kHead) +
+                             "<trk><trkseg><trkpt lat=\"1\" lon=\"2\"><time>2013-05-18T08:23:04Z</time></trkpt>"
+                             "<trkpt lat=\"3\" lon=\"4\"/></trkseg></trk></gpx>");
   ASSERT_EQ(t.fixes.size(), 1u);
   EXPECT_EQ(t.fixes[0].t_ns, 1368865384000000000LL);
   EXPECT_TRUE(HasNote(t, "1 points without <time> dropped"));
 }
 
 TEST(Gpx, Gpx10SpeedAndNoZone) {
-  const FlightTrack t = Read("<gpx version=\"1.0\" xmlns=\"http://www.topografix.com/GPX/1/0\"><trk><trkseg>"
-                             "<trkpt lat=\"10.1\" lon=\"-20.2\"><time>2013-01-01T12:00:04</time><speed>3.5</speed></trkpt></trkseg></trk></gpx>");
+  const FlightTrack t = Read(
+      "<gpx version=\"1.0\" xmlns=\"http://www.topografix.com/GPX/1/0\"><trk><trkseg>"
+      "<trkpt lat=\"10.1\" "
+      "lon=\"-20.2\"><time>2013-01-01T12:00:04</time><speed>3.5</speed></trkpt></trkseg></trk></gpx>");
   ASSERT_EQ(t.fixes.size(), 1u);
   EXPECT_DOUBLE_EQ(t.fixes[0].ground_speed_m_s, 3.5);
   EXPECT_TRUE(HasNote(t, "without a zone, taken as UTC"));
@@ -94,14 +102,23 @@ TEST(Gpx, MalformedXmlHasLineAndColumn) {
   ExpectError(std::string(kHead) + "<trk><trkseg>\n  <trkpt lat=\"1\" lon=\"2\"></trkseg>\n", 4, 28, "malformed XML");
 }
 TEST(Gpx, NotGpx) { ExpectError("<kml><Document/></kml>", 1, 1, "root element is <kml>"); }
-TEST(Gpx, NoPoints) { ExpectError(std::string(kHead) + "<trk><trkseg/></trk></gpx>", 2, 1, "no track, route or waypoint points"); }
-TEST(Gpx, MissingLon) { ExpectError(std::string(kHead) + "<wpt lat=\"1\"/></gpx>", 3, 1, "lacks the lon attribute"); }
-TEST(Gpx, BadLat) { ExpectError(std::string(kHead) + "<wpt lat=\"1,5\" lon=\"2\"/></gpx>", 3, 1, "lat=\"1,5\" is not a number"); }
-TEST(Gpx, LatOutOfRange) { ExpectError(std::string(kHead) + "<wpt lat=\"91\" lon=\"2\"/></gpx>", 3, 1, "outside [-90, 90]"); }
-TEST(Gpx, BadTime) {
-  ExpectError(std::string(kHead) + "<wpt lat=\"1\" lon=\"2\">\n <time>yesterday</time></wpt></gpx>", 4, 2, "not an ISO-8601");
+TEST(Gpx, NoPoints) {
+  ExpectError(std::string(kHead) + "<trk><trkseg/></trk></gpx>", 2, 1, "no track, route or waypoint points");
 }
-TEST(Gpx, BadEle) { ExpectError(std::string(kHead) + "<wpt lat=\"1\" lon=\"2\"><ele>high</ele></wpt></gpx>", 3, 22, "<ele>"); }
+TEST(Gpx, MissingLon) { ExpectError(std::string(kHead) + "<wpt lat=\"1\"/></gpx>", 3, 1, "lacks the lon attribute"); }
+TEST(Gpx, BadLat) {
+  ExpectError(std::string(kHead) + "<wpt lat=\"1,5\" lon=\"2\"/></gpx>", 3, 1, "lat=\"1,5\" is not a number");
+}
+TEST(Gpx, LatOutOfRange) {
+  ExpectError(std::string(kHead) + "<wpt lat=\"91\" lon=\"2\"/></gpx>", 3, 1, "outside [-90, 90]");
+}
+TEST(Gpx, BadTime) {
+  ExpectError(std::string(kHead) + "<wpt lat=\"1\" lon=\"2\">\n <time>yesterday</time></wpt></gpx>", 4, 2,
+              "not an ISO-8601");
+}
+TEST(Gpx, BadEle) {
+  ExpectError(std::string(kHead) + "<wpt lat=\"1\" lon=\"2\"><ele>high</ele></wpt></gpx>", 3, 22, "<ele>");
+}
 
 // ---- Real samples (gpxpy test files) ----
 
@@ -110,7 +127,8 @@ std::filesystem::path SampleDir() { return testing::DataRoot() / "gpx_tracks" / 
 TEST(GpxSamples, EveryFileParsesOrIsRejectedWithAReason) {
   if (!std::filesystem::is_directory(SampleDir())) GTEST_SKIP() << "no " << SampleDir() << " (set ROADSURVEY_DATA)";
   // Files without any point are rejected; all others parse.
-  const std::set<std::string> kRejected = {"custom_schema_locations.gpx", "default_schema_locations.gpx", "unicode2.gpx"};
+  const std::set<std::string> kRejected = {"custom_schema_locations.gpx", "default_schema_locations.gpx",
+                                           "unicode2.gpx"};
   int n = 0;
   for (const auto& entry : std::filesystem::directory_iterator(SampleDir())) {
     if (entry.path().extension() != ".gpx") continue;
@@ -158,7 +176,8 @@ TEST(GpxSamples, TruncatedAndBitFlippedCopies) {
   for (const auto& entry : std::filesystem::directory_iterator(SampleDir())) {
     if (entry.path().extension() != ".gpx") continue;
     const std::string text = testing::Slurp(entry.path(), 32 << 10);
-    const auto st = testing::Mutate(text, [&](std::istream& in) { return ReadGpx(in, "m.gpx"); }, 10, 30, 99);
+    const auto st = testing::Mutate(
+        text, [&](std::istream& in) { return ReadGpx(in, "m.gpx"); }, 10, 30, 99);
     errors += st.input_errors;
     errors_with_line += st.input_errors_with_line;
   }

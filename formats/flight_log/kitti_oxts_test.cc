@@ -17,7 +17,8 @@ namespace {
 
 constexpr const char* kRecord0 =
     "49.032806841152 8.4385595703734 113.9702835083 0.010009 0.007367 2.9196693267949 2.0015688190113 -8.5106218673827 "
-    "8.7424908583432 0.076390461431484 -0.10478895840789 0.35440792081468 0.23382035769103 9.8901658673859 0.428539476993 "
+    "8.7424908583432 0.076390461431484 -0.10478895840789 0.35440792081468 0.23382035769103 9.8901658673859 "
+    "0.428539476993 "
     "0.13258431756988 9.8890929132653 -0.0037897649679662 -0.0026699472128077 0.0061605421983224 -0.0037445712537476 "
     "-0.0027321086947683 0.0061607573413927 0.17055204484262 0.027586228448267 4 6 5 5 0\n";
 
@@ -39,8 +40,10 @@ TEST(KittiOxts, Nominal) {
   // Attitude: the quaternion must equal R_ned_enu * R_enu_flu(KITTI devkit: Rz(yaw) Ry(pitch) Rx(roll)) * R_flu_frd.
   ASSERT_EQ(t.attitude.size(), 1u);
   const double roll = 0.010009, pitch = 0.007367, yaw = 2.9196693267949;
-  const Eigen::Matrix3d R_enu_flu = (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
-                                     Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX())).toRotationMatrix();
+  const Eigen::Matrix3d R_enu_flu =
+      (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
+       Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()))
+          .toRotationMatrix();
   Eigen::Matrix3d R_ned_enu;
   R_ned_enu << 0, 1, 0, 1, 0, 0, 0, 0, -1;
   const Eigen::Matrix3d R_flu_frd = Eigen::Vector3d(1, -1, -1).asDiagonal();
@@ -124,11 +127,14 @@ TEST(KittiOxtsSample, ConsistentWithShippedPoses) {
   const Eigen::Matrix4d T_cam_enu = Eigen::umeyama(p_enu, p_cam, true);
   const double scale = std::cbrt(T_cam_enu.topLeftCorner<3, 3>().determinant());
   double sum2 = 0;
-  for (int i = 0; i < 7; ++i) sum2 += ((T_cam_enu.topLeftCorner<3, 3>() * p_enu.col(i) + T_cam_enu.topRightCorner<3, 1>()) - p_cam.col(i)).squaredNorm();
+  for (int i = 0; i < 7; ++i)
+    sum2 += ((T_cam_enu.topLeftCorner<3, 3>() * p_enu.col(i) + T_cam_enu.topRightCorner<3, 1>()) - p_cam.col(i))
+                .squaredNorm();
   const double rms_m = std::sqrt(sum2 / 7);
   double path_m = 0;
   for (int i = 1; i < 7; ++i) path_m += (p_enu.col(i) - p_enu.col(i - 1)).norm();
-  std::cout << "OXTS vs poses.txt: path " << path_m << " m, similarity scale " << scale << ", residual RMS " << rms_m << " m\n";
+  std::cout << "OXTS vs poses.txt: path " << path_m << " m, similarity scale " << scale << ", residual RMS " << rms_m
+            << " m\n";
   EXPECT_GT(path_m, 2.0);  // the car moved: the check is not trivially satisfied
   EXPECT_LT(rms_m, 0.1);   // measured 0.031 m (sub-metre required)
   EXPECT_GT(scale, 0.5);   // measured 0.539: documents the data's scale, fails if the data changes
@@ -137,7 +143,8 @@ TEST(KittiOxtsSample, ConsistentWithShippedPoses) {
   // Metric truth from the OXTS itself: path length vs speed (vn, ve) integrated over timestamps.txt.
   double speed_path_m = 0;
   for (int i = 1; i < 7; ++i)
-    speed_path_m += 0.5 * (t.fixes[i].ground_speed_m_s + t.fixes[i - 1].ground_speed_m_s) * (t.fixes[i].t_ns - t.fixes[i - 1].t_ns) * 1e-9;
+    speed_path_m += 0.5 * (t.fixes[i].ground_speed_m_s + t.fixes[i - 1].ground_speed_m_s) *
+                    (t.fixes[i].t_ns - t.fixes[i - 1].t_ns) * 1e-9;
   std::cout << "OXTS path from positions " << path_m << " m, from speed x time " << speed_path_m << " m\n";
   EXPECT_NEAR(path_m / speed_path_m, 1.0, 0.05);  // measured ~1.025 (the synced packets jitter by ~10 ms)
 
@@ -154,11 +161,14 @@ TEST(KittiOxtsSample, ConsistentWithShippedPoses) {
 TEST(KittiOxtsSample, TruncatedAndBitFlippedCopies) {
   if (!std::filesystem::is_directory(DriveDir())) GTEST_SKIP() << "no " << DriveDir() << " (set ROADSURVEY_DATA)";
   const std::string rec = testing::Slurp(DriveDir() / "oxts" / "data" / "0000000003.txt");
-  const auto st = testing::Mutate(rec, [](std::istream& in) {
-    FlightTrack t;
-    ReadKittiOxtsRecord(in, "r.txt", 0, &t);
-    return t;
-  }, 30, 200, 5);
+  const auto st = testing::Mutate(
+      rec,
+      [](std::istream& in) {
+        FlightTrack t;
+        ReadKittiOxtsRecord(in, "r.txt", 0, &t);
+        return t;
+      },
+      30, 200, 5);
   EXPECT_GT(st.input_errors, 30);
   EXPECT_EQ(st.input_errors_with_line, st.input_errors);
   const std::string ts = testing::Slurp(DriveDir() / "oxts" / "timestamps.txt");

@@ -20,9 +20,7 @@
 namespace rs::testing {
 
 /// The test data root (ROADSURVEY_DATA, else the build-time default).
-inline std::filesystem::path DataRoot() {
-  return rs::test::DataRoot();
-}
+inline std::filesystem::path DataRoot() { return rs::test::DataRoot(); }
 
 inline std::string Slurp(const std::filesystem::path& p, size_t max_bytes = SIZE_MAX) {
   std::ifstream in(p, std::ios::binary);
@@ -40,8 +38,8 @@ struct MutationStats {
 
 /// Runs `read` on `n_trunc` truncations and `n_flips` single-byte corruptions of
 /// `text`. Fails the test on any exception other than InputError.
-inline MutationStats Mutate(const std::string& text, const std::function<FlightTrack(std::istream&)>& read,
-                            int n_trunc, int n_flips, uint32_t seed) {
+inline MutationStats Mutate(const std::string& text, const std::function<FlightTrack(std::istream&)>& read, int n_trunc,
+                            int n_flips, uint32_t seed) {
   MutationStats st;
   auto run = [&](const std::string& s, const std::string& what) {
     std::istringstream in(s);

@@ -19,12 +19,27 @@ constexpr size_t kMaxLineBytes = 1 << 20;
 constexpr const char* kMagic = "# roadsurvey flight track v1";
 
 enum Col {
-  kTNs, kType, kLat, kLon, kAlt, kAltRef, kFixType, kSatellites, kHAcc, kVAcc, kQw, kQx, kQy, kQz, kSequence,
-  kGroundSpeed, kNumCols
+  kTNs,
+  kType,
+  kLat,
+  kLon,
+  kAlt,
+  kAltRef,
+  kFixType,
+  kSatellites,
+  kHAcc,
+  kVAcc,
+  kQw,
+  kQx,
+  kQy,
+  kQz,
+  kSequence,
+  kGroundSpeed,
+  kNumCols
 };
 constexpr std::array<const char*, kNumCols> kColNames = {
-    "t_ns", "type", "lat_deg", "lon_deg", "alt_m", "alt_ref", "fix_type", "satellites", "h_acc_m", "v_acc_m",
-    "qw", "qx", "qy", "qz", "sequence", "ground_speed_m_s"};
+    "t_ns",    "type",    "lat_deg", "lon_deg", "alt_m", "alt_ref", "fix_type", "satellites",
+    "h_acc_m", "v_acc_m", "qw",      "qx",      "qy",    "qz",      "sequence", "ground_speed_m_s"};
 constexpr int kNumRequiredCols = kSequence + 1;  // ground_speed_m_s is optional
 
 std::string Num(double v) { return std::isfinite(v) ? flightlog::FormatDouble(v) : std::string(); }
@@ -69,7 +84,8 @@ class Row {
   int64_t Int64(Col c, int64_t lo, int64_t hi) const {
     int64_t v;
     if (!flightlog::ParseInt64(Text(c), &v)) Fail(c, "not an integer: '" + std::string(Text(c)) + "'");
-    if (v < lo || v > hi) Fail(c, std::to_string(v) + " outside [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+    if (v < lo || v > hi)
+      Fail(c, std::to_string(v) + " outside [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
     return v;
   }
   AltitudeReference AltRef(bool alt_present) const {
@@ -169,19 +185,27 @@ FlightTrack ReadTrackCsv(std::istream& in, const std::string& path) {
   };
 
   // Line 1: magic + time base.
-  if (!next_line()) throw InputError(InputLocation::Line(path, 1), "empty file, expected '" + std::string(kMagic) + ", time_base=utc|boot'");
+  if (!next_line())
+    throw InputError(InputLocation::Line(path, 1),
+                     "empty file, expected '" + std::string(kMagic) + ", time_base=utc|boot'");
   {
     const std::string_view first = flightlog::Trim(line);
     const std::string prefix = std::string(kMagic) + ", time_base=";
     if (first.substr(0, prefix.size()) != prefix) {
       if (first.rfind("# roadsurvey flight track v", 0) == 0)
-        throw InputError(InputLocation::Line(path, 1, 1), "unsupported track CSV version (this reader knows v1): '" + std::string(first) + "'");
-      throw InputError(InputLocation::Line(path, 1, 1), "not a roadsurvey track CSV: first line must be '" + prefix + "utc|boot'");
+        throw InputError(InputLocation::Line(path, 1, 1),
+                         "unsupported track CSV version (this reader knows v1): '" + std::string(first) + "'");
+      throw InputError(InputLocation::Line(path, 1, 1),
+                       "not a roadsurvey track CSV: first line must be '" + prefix + "utc|boot'");
     }
     const std::string_view tb = flightlog::Trim(first.substr(prefix.size()));
-    if (tb == "utc") track.time_base = TimeBase::kUtc;
-    else if (tb == "boot") track.time_base = TimeBase::kBoot;
-    else throw InputError(InputLocation::Line(path, 1, static_cast<int64_t>(prefix.size()) + 1), "time_base must be utc or boot, got '" + std::string(tb) + "'");
+    if (tb == "utc")
+      track.time_base = TimeBase::kUtc;
+    else if (tb == "boot")
+      track.time_base = TimeBase::kBoot;
+    else
+      throw InputError(InputLocation::Line(path, 1, static_cast<int64_t>(prefix.size()) + 1),
+                       "time_base must be utc or boot, got '" + std::string(tb) + "'");
   }
 
   // Notes, then the header.
@@ -198,17 +222,24 @@ FlightTrack ReadTrackCsv(std::istream& in, const std::string& path) {
       if (t.substr(0, kNote.size()) == kNote) track.notes.emplace_back(t.substr(kNote.size()));
       continue;
     }
-    if (!flightlog::SplitCsvLine(line, &fields, &bad_col)) throw InputError(InputLocation::Line(path, line_no, bad_col), "unterminated quote in header");
+    if (!flightlog::SplitCsvLine(line, &fields, &bad_col))
+      throw InputError(InputLocation::Line(path, line_no, bad_col), "unterminated quote in header");
     for (size_t i = 0; i < fields.size(); ++i) {
       const std::string_view name = flightlog::Trim(fields[i].text);
       const auto it = std::find_if(kColNames.begin(), kColNames.end(), [&](const char* n) { return name == n; });
-      if (it == kColNames.end()) throw InputError(InputLocation::Line(path, line_no, fields[i].column), "unknown column '" + std::string(name) + "'");
+      if (it == kColNames.end())
+        throw InputError(InputLocation::Line(path, line_no, fields[i].column),
+                         "unknown column '" + std::string(name) + "'");
       const int c = static_cast<int>(it - kColNames.begin());
-      if (map[c] >= 0) throw InputError(InputLocation::Line(path, line_no, fields[i].column), "duplicate column '" + std::string(name) + "'");
+      if (map[c] >= 0)
+        throw InputError(InputLocation::Line(path, line_no, fields[i].column),
+                         "duplicate column '" + std::string(name) + "'");
       map[c] = static_cast<int>(i);
     }
     for (int c = 0; c < kNumRequiredCols; ++c)
-      if (map[c] < 0) throw InputError(InputLocation::Line(path, line_no), std::string("header lacks required column '") + kColNames[c] + "'");
+      if (map[c] < 0)
+        throw InputError(InputLocation::Line(path, line_no),
+                         std::string("header lacks required column '") + kColNames[c] + "'");
     have_header = true;
   }
   if (!have_header) throw InputError(InputLocation::Line(path, line_no + 1), "missing header line (t_ns,type,...)");
@@ -216,11 +247,13 @@ FlightTrack ReadTrackCsv(std::istream& in, const std::string& path) {
   while (next_line()) {
     const std::string_view t = flightlog::Trim(line);
     if (t.empty() || t.front() == '#') continue;
-    if (!flightlog::SplitCsvLine(line, &fields, &bad_col)) throw InputError(InputLocation::Line(path, line_no, bad_col), "unterminated quote");
+    if (!flightlog::SplitCsvLine(line, &fields, &bad_col))
+      throw InputError(InputLocation::Line(path, line_no, bad_col), "unterminated quote");
     int nh = 0;
     for (int c : map) nh += c >= 0;
     if (static_cast<int>(fields.size()) != nh)
-      throw InputError(InputLocation::Line(path, line_no), "expected " + std::to_string(nh) + " fields, got " + std::to_string(fields.size()));
+      throw InputError(InputLocation::Line(path, line_no),
+                       "expected " + std::to_string(nh) + " fields, got " + std::to_string(fields.size()));
     const Row row(path, line_no, fields, map);
     row.Require(kTNs, "all");
     const int64_t t_ns = row.Int64(kTNs, INT64_MIN, INT64_MAX);
@@ -242,7 +275,8 @@ FlightTrack ReadTrackCsv(std::istream& in, const std::string& path) {
       f.ground_speed_m_s = row.OptDouble(kGroundSpeed, 0, 1e4);
       track.fixes.push_back(f);
     } else if (type == "attitude") {
-      for (Col c : {kLat, kLon, kAlt, kAltRef, kFixType, kSatellites, kHAcc, kVAcc, kSequence, kGroundSpeed}) row.RequireEmpty(c, "attitude");
+      for (Col c : {kLat, kLon, kAlt, kAltRef, kFixType, kSatellites, kHAcc, kVAcc, kSequence, kGroundSpeed})
+        row.RequireEmpty(c, "attitude");
       for (Col c : {kQw, kQx, kQy, kQz}) row.Require(c, "attitude");
       AttitudeSample s;
       s.t_ns = t_ns;
@@ -257,8 +291,10 @@ FlightTrack ReadTrackCsv(std::istream& in, const std::string& path) {
       }
       track.attitude.push_back(s);
     } else if (type == "camera") {
-      for (Col c : {kFixType, kSatellites, kHAcc, kVAcc, kQw, kQx, kQy, kQz, kGroundSpeed}) row.RequireEmpty(c, "camera");
-      if (row.Has(kLat) != row.Has(kLon)) row.Fail(row.Has(kLat) ? kLon : kLat, "lat_deg and lon_deg must be both set or both empty");
+      for (Col c : {kFixType, kSatellites, kHAcc, kVAcc, kQw, kQx, kQy, kQz, kGroundSpeed})
+        row.RequireEmpty(c, "camera");
+      if (row.Has(kLat) != row.Has(kLon))
+        row.Fail(row.Has(kLat) ? kLon : kLat, "lat_deg and lon_deg must be both set or both empty");
       CameraEvent e;
       e.t_ns = t_ns;
       e.sequence = row.Has(kSequence) ? row.Int64(kSequence, 0, INT64_MAX) : -1;

@@ -10,7 +10,8 @@
 namespace rs {
 namespace {
 
-constexpr const char* kHeader = "t_ns,type,lat_deg,lon_deg,alt_m,alt_ref,fix_type,satellites,h_acc_m,v_acc_m,qw,qx,qy,qz,sequence\n";
+constexpr const char* kHeader =
+    "t_ns,type,lat_deg,lon_deg,alt_m,alt_ref,fix_type,satellites,h_acc_m,v_acc_m,qw,qx,qy,qz,sequence\n";
 
 FlightTrack Read(const std::string& text) {
   std::istringstream in(text);
@@ -157,21 +158,26 @@ TEST(TrackCsv, WriterUsesDocumentedHeaderWithoutSpeed) {
   t.fixes.push_back(f);
   std::stringstream ss;
   WriteTrackCsv(ss, t);
-  EXPECT_EQ(ss.str(), std::string("# roadsurvey flight track v1, time_base=utc\n") + kHeader + "5,gnss,1,2,,unknown,,,,,,,,,\n");
+  EXPECT_EQ(ss.str(),
+            std::string("# roadsurvey flight track v1, time_base=utc\n") + kHeader + "5,gnss,1,2,,unknown,,,,,,,,,\n");
 }
 
 TEST(TrackCsv, BadMagic) { ExpectError("t_ns,type\n", 1, 1, "not a roadsurvey track CSV"); }
 TEST(TrackCsv, EmptyFile) { ExpectError("", 1, -1, "empty file"); }
-TEST(TrackCsv, UnsupportedVersion) { ExpectError("# roadsurvey flight track v2, time_base=utc\n", 1, 1, "unsupported"); }
+TEST(TrackCsv, UnsupportedVersion) {
+  ExpectError("# roadsurvey flight track v2, time_base=utc\n", 1, 1, "unsupported");
+}
 TEST(TrackCsv, BadTimeBase) { ExpectError("# roadsurvey flight track v1, time_base=gps\n", 1, 41, "utc or boot"); }
 TEST(TrackCsv, MissingHeader) { ExpectError("# roadsurvey flight track v1, time_base=utc\n", 2, -1, "missing header"); }
 
 TEST(TrackCsv, UnknownColumn) {
-  ExpectError("# roadsurvey flight track v1, time_base=utc\nt_ns,type,lat_deg,speed\n", 2, 19, "unknown column 'speed'");
+  ExpectError("# roadsurvey flight track v1, time_base=utc\nt_ns,type,lat_deg,speed\n", 2, 19,
+              "unknown column 'speed'");
 }
 
 TEST(TrackCsv, MissingColumn) {
-  ExpectError("# roadsurvey flight track v1, time_base=utc\nt_ns,type,lat_deg\n", 2, -1, "lacks required column 'lon_deg'");
+  ExpectError("# roadsurvey flight track v1, time_base=utc\nt_ns,type,lat_deg\n", 2, -1,
+              "lacks required column 'lon_deg'");
 }
 
 TEST(TrackCsv, DuplicateColumn) {
@@ -185,40 +191,49 @@ TEST(TrackCsv, MissingRequiredField) {
 }
 
 TEST(TrackCsv, FieldNotUsedByRowType) {
-  ExpectError(std::string("# roadsurvey flight track v1, time_base=utc\n") + kHeader + "10,attitude,46,,,,,,,,1,0,0,0,\n", 3, 13,
-              "lat_deg: must be empty for attitude rows");
+  ExpectError(
+      std::string("# roadsurvey flight track v1, time_base=utc\n") + kHeader + "10,attitude,46,,,,,,,,1,0,0,0,\n", 3,
+      13, "lat_deg: must be empty for attitude rows");
 }
 
 TEST(TrackCsv, WrongFieldCount) {
-  ExpectError(std::string("# roadsurvey flight track v1, time_base=utc\n") + kHeader + "10,gnss,1,2\n", 3, -1, "expected 15 fields, got 4");
+  ExpectError(std::string("# roadsurvey flight track v1, time_base=utc\n") + kHeader + "10,gnss,1,2\n", 3, -1,
+              "expected 15 fields, got 4");
 }
 
 TEST(TrackCsv, BadNumber) {
-  ExpectError(std::string("# roadsurvey flight track v1, time_base=utc\n") + kHeader + "10,gnss,46.0x,14,,,,,,,,,,,\n", 3, 9, "not a number");
+  ExpectError(std::string("# roadsurvey flight track v1, time_base=utc\n") + kHeader + "10,gnss,46.0x,14,,,,,,,,,,,\n",
+              3, 9, "not a number");
 }
 
 TEST(TrackCsv, LatitudeOutOfRange) {
-  ExpectError(std::string("# roadsurvey flight track v1, time_base=utc\n") + kHeader + "10,gnss,96,14,,,,,,,,,,,\n", 3, 9, "outside [-90, 90]");
+  ExpectError(std::string("# roadsurvey flight track v1, time_base=utc\n") + kHeader + "10,gnss,96,14,,,,,,,,,,,\n", 3,
+              9, "outside [-90, 90]");
 }
 
 TEST(TrackCsv, UnknownType) {
-  ExpectError(std::string("# roadsurvey flight track v1, time_base=utc\n") + kHeader + "10,imu,,,,,,,,,,,,,\n", 3, 4, "not one of gnss");
+  ExpectError(std::string("# roadsurvey flight track v1, time_base=utc\n") + kHeader + "10,imu,,,,,,,,,,,,,\n", 3, 4,
+              "not one of gnss");
 }
 
 TEST(TrackCsv, BadAltRef) {
-  ExpectError(std::string("# roadsurvey flight track v1, time_base=utc\n") + kHeader + "10,gnss,1,2,3,msl,,,,,,,,,\n", 3, 15, "'msl' is not one of");
+  ExpectError(std::string("# roadsurvey flight track v1, time_base=utc\n") + kHeader + "10,gnss,1,2,3,msl,,,,,,,,,\n",
+              3, 15, "'msl' is not one of");
 }
 
 TEST(TrackCsv, AltitudeWithoutReference) {
-  ExpectError(std::string("# roadsurvey flight track v1, time_base=utc\n") + kHeader + "10,gnss,1,2,3,,,,,,,,,,\n", 3, 15, "required when alt_m is set");
+  ExpectError(std::string("# roadsurvey flight track v1, time_base=utc\n") + kHeader + "10,gnss,1,2,3,,,,,,,,,,\n", 3,
+              15, "required when alt_m is set");
 }
 
 TEST(TrackCsv, NonUnitQuaternion) {
-  ExpectError(std::string("# roadsurvey flight track v1, time_base=utc\n") + kHeader + "10,attitude,,,,,,,,,1,1,0,0,\n", 3, -1, "quaternion norm");
+  ExpectError(std::string("# roadsurvey flight track v1, time_base=utc\n") + kHeader + "10,attitude,,,,,,,,,1,1,0,0,\n",
+              3, -1, "quaternion norm");
 }
 
 TEST(TrackCsv, BadTime) {
-  ExpectError(std::string("# roadsurvey flight track v1, time_base=utc\n") + kHeader + "1.5e9,gnss,1,2,,,,,,,,,,,\n", 3, 1, "t_ns: not an integer");
+  ExpectError(std::string("# roadsurvey flight track v1, time_base=utc\n") + kHeader + "1.5e9,gnss,1,2,,,,,,,,,,,\n", 3,
+              1, "t_ns: not an integer");
 }
 
 TEST(TrackCsv, OutOfOrderRowsAreSortedWithNote) {
@@ -231,9 +246,7 @@ TEST(TrackCsv, OutOfOrderRowsAreSortedWithNote) {
   EXPECT_NE(t.notes[0].find("1 fixes"), std::string::npos);
 }
 
-TEST(TrackCsv, MissingFile) {
-  EXPECT_THROW(ReadTrackCsv(std::filesystem::path("/nonexistent/track.csv")), InputError);
-}
+TEST(TrackCsv, MissingFile) { EXPECT_THROW(ReadTrackCsv(std::filesystem::path("/nonexistent/track.csv")), InputError); }
 
 }  // namespace
 }  // namespace rs

@@ -16,8 +16,8 @@ namespace {
 void CheckPosition(const Position& p) {
   if (!std::isfinite(p.lon_deg) || !std::isfinite(p.lat_deg) || p.lon_deg < -180 || p.lon_deg > 180 ||
       p.lat_deg < -90 || p.lat_deg > 90 || (p.h_m && !std::isfinite(*p.h_m))) {
-    throw std::invalid_argument(fmt::format("GeoJSON position ({}, {}) is not a finite WGS84 lon/lat", p.lon_deg,
-                                            p.lat_deg));
+    throw std::invalid_argument(
+        fmt::format("GeoJSON position ({}, {}) is not a finite WGS84 lon/lat", p.lon_deg, p.lat_deg));
   }
 }
 
@@ -217,13 +217,17 @@ FeatureCollection ReadFeatureCollection(std::istream& in, const std::string& pat
     }
     Feature out{ReadGeometry(f["geometry"], path)};
     if (f.contains("properties")) {
-      if (!f["properties"].is_object() && !f["properties"].is_null()) Fail(path, "properties must be an object or null");
+      if (!f["properties"].is_object() && !f["properties"].is_null())
+        Fail(path, "properties must be an object or null");
       out.properties = f["properties"];
     }
     if (f.contains("id")) {
-      if (f["id"].is_string()) out.id = f["id"].get<std::string>();
-      else if (f["id"].is_number()) out.id = f["id"].dump();
-      else Fail(path, "a Feature id must be a string or number");
+      if (f["id"].is_string())
+        out.id = f["id"].get<std::string>();
+      else if (f["id"].is_number())
+        out.id = f["id"].dump();
+      else
+        Fail(path, "a Feature id must be a string or number");
     }
     fc.features.push_back(std::move(out));
   }

@@ -103,12 +103,18 @@ TEST(GeoJson, MalformedInput) {
   }
   EXPECT_THROW(read(R"({"type":"Feature"})"), InputError);
   EXPECT_THROW(read(R"({"type":"FeatureCollection","crs":{},"features":[]})"), InputError);
-  EXPECT_THROW(read(R"({"type":"FeatureCollection","features":[{"type":"Feature","geometry":{"type":"Circle","coordinates":[0,0]}}]})"),
-               InputError);
-  EXPECT_THROW(read(R"({"type":"FeatureCollection","features":[{"type":"Feature","geometry":{"type":"Point","coordinates":[0,95]}}]})"),
-               InputError);
-  EXPECT_THROW(read(R"({"type":"FeatureCollection","features":[{"type":"Feature","geometry":{"type":"Polygon","coordinates":[[[0,0],[1,0],[1,1]]]}}]})"),
-               InputError);
+  EXPECT_THROW(
+      read(
+          R"({"type":"FeatureCollection","features":[{"type":"Feature","geometry":{"type":"Circle","coordinates":[0,0]}}]})"),
+      InputError);
+  EXPECT_THROW(
+      read(
+          R"({"type":"FeatureCollection","features":[{"type":"Feature","geometry":{"type":"Point","coordinates":[0,95]}}]})"),
+      InputError);
+  EXPECT_THROW(
+      read(
+          R"({"type":"FeatureCollection","features":[{"type":"Feature","geometry":{"type":"Polygon","coordinates":[[[0,0],[1,0],[1,1]]]}}]})"),
+      InputError);
   EXPECT_EQ(read(R"({"type":"FeatureCollection","features":[]})").features.size(), 0u);
 }
 

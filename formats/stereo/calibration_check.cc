@@ -36,13 +36,13 @@ void CheckCamera(const CameraIntrinsics& c, const std::string& side, const std::
     fail(k + ".cy = " + Num(c.cy) + " lies far outside the image (height " + std::to_string(c.height) + ")");
   for (size_t i = 0; i < c.dist.size(); ++i)
     if (!std::isfinite(c.dist[i]) || std::abs(c.dist[i]) > 1e3)
-      fail("D_" + side + "[" + std::to_string(i) + "] = " + Num(c.dist[i]) + " is not a plausible distortion coefficient");
+      fail("D_" + side + "[" + std::to_string(i) + "] = " + Num(c.dist[i]) +
+           " is not a plausible distortion coefficient");
 }
 
 }  // namespace
 
-void CheckStereoCalibration(const StereoCalibration& calib, const std::string& path,
-                            const CalibrationLimits& lim) {
+void CheckStereoCalibration(const StereoCalibration& calib, const std::string& path, const CalibrationLimits& lim) {
   auto fail = [&](const std::string& msg) { throw InputError(InputLocation::File(path), msg); };
   CheckCamera(calib.left, "left", path, lim);
   CheckCamera(calib.right, "right", path, lim);
@@ -59,8 +59,8 @@ void CheckStereoCalibration(const StereoCalibration& calib, const std::string& p
     }
   if (worst > lim.rotation_tolerance)
     fail("R_right_left is not orthonormal: max |R R^T - I| = " + Num(worst) + " > " + Num(lim.rotation_tolerance));
-  const double det = R[0] * (R[4] * R[8] - R[5] * R[7]) - R[1] * (R[3] * R[8] - R[5] * R[6]) +
-                     R[2] * (R[3] * R[7] - R[4] * R[6]);
+  const double det =
+      R[0] * (R[4] * R[8] - R[5] * R[7]) - R[1] * (R[3] * R[8] - R[5] * R[6]) + R[2] * (R[3] * R[7] - R[4] * R[6]);
   if (std::abs(det - 1) > lim.rotation_tolerance)
     fail("R_right_left has det = " + Num(det) + ", violates det = 1 (a reflection?)");
 
@@ -76,8 +76,7 @@ void CheckStereoCalibration(const StereoCalibration& calib, const std::string& p
   if (calib.rectified) {
     const auto& L = calib.left;
     const auto& Rt = calib.right;
-    if (L.fx != Rt.fx || L.fy != Rt.fy || L.cx != Rt.cx || L.cy != Rt.cy)
-      fail("rectified = 1 but K_left != K_right");
+    if (L.fx != Rt.fx || L.fy != Rt.fy || L.cx != Rt.cx || L.cy != Rt.cy) fail("rectified = 1 but K_left != K_right");
     if (L.width != Rt.width || L.height != Rt.height) fail("rectified = 1 but left and right image sizes differ");
     for (int i = 0; i < 5; ++i)
       if (L.dist[i] != 0 || Rt.dist[i] != 0) fail("rectified = 1 but D_left or D_right is not zero");
@@ -87,7 +86,8 @@ void CheckStereoCalibration(const StereoCalibration& calib, const std::string& p
     const auto& t = calib.t_right_left;
     if (std::abs(t[1]) > lim.rectified_tolerance * B || std::abs(t[2]) > lim.rectified_tolerance * B)
       fail("rectified = 1 but t_right_left is not (-B, 0, 0)");
-    if (t[0] >= 0) fail("rectified = 1 but t_right_left.x = " + Num(t[0]) + " violates x < 0 (right camera on the right)");
+    if (t[0] >= 0)
+      fail("rectified = 1 but t_right_left.x = " + Num(t[0]) + " violates x < 0 (right camera on the right)");
   }
 }
 

@@ -12,12 +12,12 @@ namespace rs {
 /// Limits applied by CheckStereoCalibration. Defaults cover every real rig we
 /// know of (baselines from a few millimetres to a few metres).
 struct CalibrationLimits {
-  double min_baseline_m = 0.001;       ///< below this the pair has no depth resolution
-  double max_baseline_m = 10.0;        ///< above this the file is almost surely in mm
-  double max_focal_px = 1e6;           ///< focal lengths beyond this are not a camera
+  double min_baseline_m = 0.001;         ///< below this the pair has no depth resolution
+  double max_baseline_m = 10.0;          ///< above this the file is almost surely in mm
+  double max_focal_px = 1e6;             ///< focal lengths beyond this are not a camera
   double principal_point_margin = 0.25;  ///< cx may lie in [-m*w, (1+m)*w], likewise cy
-  double rotation_tolerance = 1e-5;    ///< max |R R^T - I| element and |det R - 1|
-  double rectified_tolerance = 1e-6;   ///< rectified pairs: max |R - I|, |t_y|/B, |t_z|/B
+  double rotation_tolerance = 1e-5;      ///< max |R R^T - I| element and |det R - 1|
+  double rectified_tolerance = 1e-6;     ///< rectified pairs: max |R - I|, |t_y|/B, |t_z|/B
 };
 
 /// Throws InputError (InputLocation::File(path)) naming the first offending field,

@@ -174,9 +174,9 @@ std::vector<double> YNumbers(const YAML::Node& parent, const std::string& key, c
       v = n.as<std::vector<double>>();
     }
     if (expected > 0 && v.size() != expected)
-      throw InputError(InputLocation::Line(path, n.Mark().line + 1), "key '" + key_path + "' holds " +
-                                                                         std::to_string(v.size()) + " values, expected " +
-                                                                         std::to_string(expected));
+      throw InputError(
+          InputLocation::Line(path, n.Mark().line + 1),
+          "key '" + key_path + "' holds " + std::to_string(v.size()) + " values, expected " + std::to_string(expected));
     return v;
   } catch (const YAML::Exception&) {
     throw InputError(InputLocation::Line(path, n.Mark().line + 1), "key '" + key_path + "' is not a list of numbers");
@@ -442,8 +442,8 @@ StereoCalibration ReadKittiOdometryCalib(std::istream& in, const std::string& pa
                                          int left_index, int right_index) {
   const auto m = ParseKittiText(in, path, /*allow_unlabelled=*/true);
   const std::string ln = "P" + std::to_string(left_index), rn = "P" + std::to_string(right_index);
-  StereoCalibration c = FromProjections(KittiRequire(m, ln, 12, path), KittiRequire(m, rn, 12, path), ln, rn, path,
-                                        width, height);
+  StereoCalibration c =
+      FromProjections(KittiRequire(m, ln, 12, path), KittiRequire(m, rn, 12, path), ln, rn, path, width, height);
   c.source_path = path;
   CheckStereoCalibration(c, path);
   return c;
@@ -541,8 +541,9 @@ StereoCalibration ReadStereoCalibration(const std::filesystem::path& path, Calib
     set(CalibrationFormat::kKittiOdometry);
     return ReadKittiOdometryCalib(in, p);
   }
-  Fail(p, "unrecognised calibration format (expected calibration.yaml, ORB-SLAM2/stella_vslam settings, "
-          "Kalibr camchain, EuRoC sensor.yaml, KITTI calib.txt or calib_cam_to_cam.txt)");
+  Fail(p,
+       "unrecognised calibration format (expected calibration.yaml, ORB-SLAM2/stella_vslam settings, "
+       "Kalibr camchain, EuRoC sensor.yaml, KITTI calib.txt or calib_cam_to_cam.txt)");
 }
 
 }  // namespace rs

@@ -31,8 +31,7 @@ StereoCalibration ReadKalibrCamchain(std::istream& in, const std::string& path_f
 
 /// A pair of EuRoC/ASL sensor.yaml files (T_BS = T_body_cam, intrinsics [fu fv cu cv],
 /// radial-tangential distortion). left_yaml is cam0, right_yaml cam1.
-StereoCalibration ReadEurocSensorPair(const std::filesystem::path& left_yaml,
-                                      const std::filesystem::path& right_yaml);
+StereoCalibration ReadEurocSensorPair(const std::filesystem::path& left_yaml, const std::filesystem::path& right_yaml);
 
 /// KITTI odometry calib.txt: lines "P0: <12 numbers>" .. "P3: ..." (or, as some copies
 /// ship it, unlabelled lines in that order). The pair (left_index, right_index) is taken,

@@ -83,17 +83,16 @@ StereoCalibration ReadCalibrationYaml(std::istream& in, const std::string& path)
   const cv::FileNode root = fs.root();
   if (!root.isMap()) throw InputError(InputLocation::File(path), "top level is not a YAML map");
 
-  static const std::set<std::string> kKeys = {"format",  "rectified", "image_width", "image_height",
-                                              "K_left",  "D_left",    "K_right",     "D_right",
-                                              "R_right_left", "t_right_left"};
+  static const std::set<std::string> kKeys = {"format", "rectified", "image_width", "image_height", "K_left",
+                                              "D_left", "K_right",   "D_right",     "R_right_left", "t_right_left"};
   for (const std::string& k : root.keys())
     if (!kKeys.count(k)) throw InputError(InputLocation::File(path), "unknown key '" + k + "'");
 
   const cv::FileNode fmt = root["format"];
   if (!fmt.isString()) throw InputError(InputLocation::File(path), "missing key 'format'");
   if (fmt.string() != kNativeCalibrationFormat)
-    throw InputError(InputLocation::File(path), "format = '" + fmt.string() + "', expected '" +
-                                                    kNativeCalibrationFormat + "'");
+    throw InputError(InputLocation::File(path),
+                     "format = '" + fmt.string() + "', expected '" + kNativeCalibrationFormat + "'");
   StereoCalibration c;
   c.source_path = path;
   const int rectified = RequireInt(root, "rectified", path);

@@ -93,8 +93,7 @@ TEST(CalibrationYaml, FileRoundTrip) {
 TEST(CalibrationYaml, BadFieldsNamed) {
   const std::string good = Write(RawSample());
   // Negative focal length in K_left (first element of its data).
-  ExpectRejected(std::regex_replace(good, std::regex(R"(K_left: !!opencv-matrix\n(.*\n){3}   data: \[ )"),
-                                    "$&-"),
+  ExpectRejected(std::regex_replace(good, std::regex(R"(K_left: !!opencv-matrix\n(.*\n){3}   data: \[ )"), "$&-"),
                  "K_left.fx");
   ExpectRejected(Replace(good, "image_width: 752", "image_width: 75"), "K_left.cx");
   ExpectRejected(Replace(good, "image_width: 752", "image_width: -752"), "image_width");

@@ -27,7 +27,8 @@ cv::Mat LoadImageRaw(const std::filesystem::path& path) {
   if (!in) throw InputError(InputLocation::File(p), "cannot open image");
   const std::streamoff size = in.tellg();
   if (size <= 0) throw InputError(InputLocation::File(p), "empty image file");
-  if (static_cast<size_t>(size) > kMaxImageBytes) throw InputError(InputLocation::File(p), "image file larger than 2 GiB");
+  if (static_cast<size_t>(size) > kMaxImageBytes)
+    throw InputError(InputLocation::File(p), "image file larger than 2 GiB");
   std::vector<uchar> bytes(static_cast<size_t>(size));
   in.seekg(0);
   if (!in.read(reinterpret_cast<char*>(bytes.data()), size)) throw InputError(InputLocation::File(p), "read error");

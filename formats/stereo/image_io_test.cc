@@ -61,8 +61,8 @@ fs::path WriteTruncated(const std::string& name, const std::string& ext, double 
   std::vector<uchar> buf;
   cv::imencode(ext, img, buf);
   const fs::path p = TempDir() / name;
-  std::ofstream(p, std::ios::binary).write(reinterpret_cast<const char*>(buf.data()),
-                                           static_cast<std::streamsize>(buf.size() * keep_fraction));
+  std::ofstream(p, std::ios::binary)
+      .write(reinterpret_cast<const char*>(buf.data()), static_cast<std::streamsize>(buf.size() * keep_fraction));
   return p;
 }
 

@@ -84,9 +84,9 @@ void StereoRectifier::Rectify(const cv::Mat& left_raw, const cv::Mat& right_raw,
                               cv::Mat* right_rect) const {
   const cv::Size size(raw_.left.width, raw_.left.height);
   if (left_raw.size() != size || right_raw.size() != size)
-    throw InputError(InputLocation::File(raw_.source_path),
-                     "image size differs from the calibration's " + std::to_string(size.width) + "x" +
-                         std::to_string(size.height));
+    throw InputError(
+        InputLocation::File(raw_.source_path),
+        "image size differs from the calibration's " + std::to_string(size.width) + "x" + std::to_string(size.height));
   if (identity_) {
     *left_rect = left_raw.clone();
     *right_rect = right_raw.clone();
@@ -110,7 +110,8 @@ void StereoRectifier::Save(const std::filesystem::path& path) const {
   const int64_t has_maps = identity_ ? 0 : 1;
   put(&has_maps, 8);
   if (has_maps)
-    for (const cv::Mat* m : {&map1_left_, &map2_left_, &map1_right_, &map2_right_}) put(m->data, m->total() * m->elemSize());
+    for (const cv::Mat* m : {&map1_left_, &map2_left_, &map1_right_, &map2_right_})
+      put(m->data, m->total() * m->elemSize());
   const uint64_t h = XXH64(buf.data(), buf.size(), 0);
   put(&h, 8);
   std::ofstream out(path, std::ios::binary);
@@ -141,7 +142,8 @@ std::optional<StereoRectifier> StereoRectifier::Load(const std::filesystem::path
     throw InputError(InputLocation::File(p), "rectification cache checksum mismatch (corrupt file)");
   size_t off = 8;
   auto get = [&](void* dst, size_t n) {
-    if (off + n > buf.size() - 8) throw InputError(InputLocation::Byte(p, static_cast<int64_t>(off)), "cache truncated");
+    if (off + n > buf.size() - 8)
+      throw InputError(InputLocation::Byte(p, static_cast<int64_t>(off)), "cache truncated");
     std::memcpy(dst, buf.data() + off, n);
     off += n;
   };
@@ -177,7 +179,8 @@ std::optional<StereoRectifier> StereoRectifier::Load(const std::filesystem::path
   rc.source_path = raw.source_path;
   r.identity_ = has_maps == 0;
   if (has_maps) {
-    if (buf.size() != header + maps + 8) throw InputError(InputLocation::File(p), "rectification cache has a wrong size");
+    if (buf.size() != header + maps + 8)
+      throw InputError(InputLocation::File(p), "rectification cache has a wrong size");
     const int ih = static_cast<int>(h), iw = static_cast<int>(w);
     for (cv::Mat* m : {&r.map1_left_, &r.map2_left_, &r.map1_right_, &r.map2_right_}) {
       const bool xy = (m == &r.map1_left_ || m == &r.map1_right_);

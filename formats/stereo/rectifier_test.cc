@@ -69,9 +69,10 @@ TEST(StereoRectifier, EurocEpipolar) {
   const double med_before = Quantile(before, 0.5), med_after = Quantile(after, 0.5);
   // ORB keypoints of pyramid level 0 sit on integer pixels, so many rectified matches have
   // |dv| = 0 exactly; the 75th percentile shows the spread as well.
-  std::printf("EuRoC V1_01 (%zu / %zu ORB ratio-test matches): |dv| raw median %.3f px (p75 %.3f), "
-              "rectified median %.3f px (p75 %.3f)\n",
-              before.size(), after.size(), med_before, Quantile(before, 0.75), med_after, Quantile(after, 0.75));
+  std::printf(
+      "EuRoC V1_01 (%zu / %zu ORB ratio-test matches): |dv| raw median %.3f px (p75 %.3f), "
+      "rectified median %.3f px (p75 %.3f)\n",
+      before.size(), after.size(), med_before, Quantile(before, 0.75), med_after, Quantile(after, 0.75));
   RecordProperty("median_dv_raw_px", std::to_string(med_before));
   RecordProperty("median_dv_rectified_px", std::to_string(med_after));
   EXPECT_LT(med_after, 0.5);

@@ -186,8 +186,7 @@ StereoSource OpenPlain(const fs::path& root, Sink* sink) {
                   "left/ holds " + std::to_string(nl) + " images but right/ holds " + std::to_string(nr));
   }
   std::optional<StereoCalibration> calib;
-  if (fs::exists(root / "calibration.yaml"))
-    sink->Try([&] { calib = ReadCalibrationYaml(root / "calibration.yaml"); });
+  if (fs::exists(root / "calibration.yaml")) sink->Try([&] { calib = ReadCalibrationYaml(root / "calibration.yaml"); });
   return StereoSource(StereoLayout::kPlain, root, std::move(frames), std::move(calib), false, sink->TakeWarnings());
 }
 
@@ -200,9 +199,9 @@ StereoSource OpenKittiOdometry(const fs::path& root, Sink* sink) {
   const std::vector<fs::path> lefts = ListImages(ld);
   const size_t nr = fs::is_directory(rd) ? ListImages(rd).size() : 0;
   if (lefts.size() != nr)
-    sink->Error(InputLocation::File(root.string()), ld.filename().string() + "/ holds " +
-                                                        std::to_string(lefts.size()) + " images but " +
-                                                        rd.filename().string() + "/ holds " + std::to_string(nr));
+    sink->Error(InputLocation::File(root.string()), ld.filename().string() + "/ holds " + std::to_string(lefts.size()) +
+                                                        " images but " + rd.filename().string() + "/ holds " +
+                                                        std::to_string(nr));
   const fs::path times = root / "times.txt";
   std::vector<std::string> lines;
   const bool have_times = fs::exists(times);
@@ -210,8 +209,8 @@ StereoSource OpenKittiOdometry(const fs::path& root, Sink* sink) {
     ReadLines(times, &lines, sink);
     while (!lines.empty() && Trim(lines.back()).empty()) lines.pop_back();
     if (lines.size() != lefts.size())
-      sink->Error(InputLocation::File(times.string()), "holds " + std::to_string(lines.size()) + " times for " +
-                                                           std::to_string(lefts.size()) + " images");
+      sink->Error(InputLocation::File(times.string()),
+                  "holds " + std::to_string(lines.size()) + " times for " + std::to_string(lefts.size()) + " images");
   } else {
     sink->Warning(InputLocation::File(times.string()),
                   "absent: timestamps synthesized at KITTI's nominal 10 Hz (t = index * 100 ms)");
@@ -296,9 +295,9 @@ StereoSource OpenKittiRaw(const fs::path& root, Sink* sink) {
         std::ifstream in2(cc);
         c = ReadKittiRawCamToCam(in2, cc.string(), false);
         if (size.width != c.left.width || size.height != c.left.height)
-          throw InputError(InputLocation::File(cc.string()),
-                           "image size " + std::to_string(size.width) + "x" + std::to_string(size.height) +
-                               " matches neither S_rect_02 nor S_02");
+          throw InputError(InputLocation::File(cc.string()), "image size " + std::to_string(size.width) + "x" +
+                                                                 std::to_string(size.height) +
+                                                                 " matches neither S_rect_02 nor S_02");
       }
       calib = c;
     });
@@ -391,7 +390,8 @@ std::string ToString(StereoLayout layout) {
 }
 
 StereoLayout ParseStereoLayout(const std::string& name, const std::string& option_name) {
-  for (StereoLayout l : {StereoLayout::kPlain, StereoLayout::kKittiOdometry, StereoLayout::kKittiRaw, StereoLayout::kEuroc})
+  for (StereoLayout l :
+       {StereoLayout::kPlain, StereoLayout::kKittiOdometry, StereoLayout::kKittiRaw, StereoLayout::kEuroc})
     if (ToString(l) == name) return l;
   throw InputError(InputLocation::File(option_name),
                    "unknown stereo layout '" + name + "' (auto, plain, kitti-odometry, kitti-raw, euroc)");
@@ -458,8 +458,8 @@ int ValidateStereoFolder(const fs::path& folder, const std::string& layout, Prob
     }
     if (!ok) continue;
     if (sl != sr) {
-      problems->Error(f.where, "left " + std::to_string(sl.width) + "x" + std::to_string(sl.height) +
-                                   " and right " + std::to_string(sr.width) + "x" + std::to_string(sr.height) +
+      problems->Error(f.where, "left " + std::to_string(sl.width) + "x" + std::to_string(sl.height) + " and right " +
+                                   std::to_string(sr.width) + "x" + std::to_string(sr.height) +
                                    " images differ in size");
       continue;
     }

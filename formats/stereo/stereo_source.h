@@ -16,10 +16,10 @@ namespace rs {
 
 /// One stereo pair of a source.
 struct StereoFrame {
-  int64_t t_ns = 0;                  ///< capture time, int64 nanoseconds on the source's own time base
-  std::filesystem::path left;        ///< left (reference) image
-  std::filesystem::path right;       ///< right image
-  InputLocation where;               ///< where the frame is declared (timestamps.csv:118), for messages
+  int64_t t_ns = 0;             ///< capture time, int64 nanoseconds on the source's own time base
+  std::filesystem::path left;   ///< left (reference) image
+  std::filesystem::path right;  ///< right image
+  InputLocation where;          ///< where the frame is declared (timestamps.csv:118), for messages
 };
 
 /// The folder layouts a StereoSource can read.

@@ -133,12 +133,12 @@ TEST(StereoSource, PlainAllProblemsCollected) {
       "filename,t_ns\n"
       "f0.png,1000\n"
       "f1.png,2000\n"
-      "f2.png,2000\n"        // line 4: duplicate
-      "f3.png,1500\n"        // line 5: non-monotonic
-      "f4.png,12.5\n"        // line 6: not an integer
-      "f5.png,6000\n"        // line 7: right image removed below
-      "f6.png,7000\n"        // line 8: truncated left image
-      "f7.png,8000\n");      // line 9: wrong size
+      "f2.png,2000\n"    // line 4: duplicate
+      "f3.png,1500\n"    // line 5: non-monotonic
+      "f4.png,12.5\n"    // line 6: not an integer
+      "f5.png,6000\n"    // line 7: right image removed below
+      "f6.png,7000\n"    // line 8: truncated left image
+      "f7.png,8000\n");  // line 9: wrong size
   fs::remove(fx.root / "right/f5.png");
   fs::resize_file(fx.root / "left/f6.png", 100);
   PlainFixture::WriteImage(fx.root / "left/f7.png", 41, 30);

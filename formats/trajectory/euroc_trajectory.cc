@@ -21,14 +21,14 @@ Trajectory ReadEurocTrajectory(std::istream& in, const std::string& path) {
     const int64_t n = reader.line_number();
     const std::vector<Field> f = SplitCsv(line);
     if (f.size() < 8) {
-      throw InputError(InputLocation::Line(path, n),
-                       fmt::format("expected at least 8 comma-separated fields "
-                                   "(t[ns], px, py, pz, qw, qx, qy, qz), got {}", f.size()));
+      throw InputError(InputLocation::Line(path, n), fmt::format("expected at least 8 comma-separated fields "
+                                                                 "(t[ns], px, py, pz, qw, qx, qy, qz), got {}",
+                                                                 f.size()));
     }
     StampedPose pose;
     pose.t_ns = ParseNsField(f[0], path, n);
     CheckNotDecreasing(trajectory.poses.empty() ? 0 : trajectory.poses.back().t_ns, pose.t_ns,
-                    !trajectory.poses.empty(), path, n, f[0].column);
+                       !trajectory.poses.empty(), path, n, f[0].column);
     double v[7];
     static const char* kNames[7] = {"p_x", "p_y", "p_z", "q_w", "q_x", "q_y", "q_z"};
     for (int k = 0; k < 7; ++k) v[k] = ParseFinite(f[k + 1], path, n, kNames[k]);
@@ -50,8 +50,8 @@ void WriteEurocTrajectory(std::ostream& out, const Trajectory& trajectory) {
   for (const StampedPose& p : trajectory.poses) {
     const Eigen::Vector3d t = p.T_world_frame.translation();
     const Eigen::Quaterniond q(p.T_world_frame.linear());
-    out << fmt::format("{},{:.17g},{:.17g},{:.17g},{:.17g},{:.17g},{:.17g},{:.17g}\n", p.t_ns, t.x(), t.y(),
-                       t.z(), q.w(), q.x(), q.y(), q.z());
+    out << fmt::format("{},{:.17g},{:.17g},{:.17g},{:.17g},{:.17g},{:.17g},{:.17g}\n", p.t_ns, t.x(), t.y(), t.z(),
+                       q.w(), q.x(), q.y(), q.z());
   }
 }
 

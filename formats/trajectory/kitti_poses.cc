@@ -65,8 +65,7 @@ std::vector<int64_t> ReadKittiTimes(std::istream& in, const std::string& path) {
 }
 
 Trajectory MakeKittiTrajectory(const std::vector<Eigen::Isometry3d>& poses, const std::string& poses_path,
-                               const std::optional<std::vector<int64_t>>& times_ns,
-                               const std::string& times_path) {
+                               const std::optional<std::vector<int64_t>>& times_ns, const std::string& times_path) {
   if (times_ns && times_ns->size() != poses.size()) {
     throw InputError(InputLocation::File(times_path),
                      fmt::format("{} times for {} poses in {}", times_ns->size(), poses.size(), poses_path));

@@ -25,8 +25,7 @@ std::vector<int64_t> ReadKittiTimes(std::istream& in, const std::string& path_fo
 /// Joins poses with times. Without times, t_ns is the pose index and has_times is false.
 /// Throws InputError on the times file when the counts differ.
 Trajectory MakeKittiTrajectory(const std::vector<Eigen::Isometry3d>& poses, const std::string& poses_path,
-                               const std::optional<std::vector<int64_t>>& times_ns,
-                               const std::string& times_path);
+                               const std::optional<std::vector<int64_t>>& times_ns, const std::string& times_path);
 
 /// Path wrapper: poses file plus optional times.txt.
 Trajectory ReadKittiTrajectory(const std::filesystem::path& poses_path,

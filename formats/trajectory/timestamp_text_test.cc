@@ -36,7 +36,7 @@ TEST(ParseSecondsToNs, Nominal) {
 
 TEST(ParseSecondsToNs, Rounding) {
   EXPECT_EQ(Ns("0.0000000014"), 1);
-  EXPECT_EQ(Ns("0.0000000015"), 2);            // halves away from zero
+  EXPECT_EQ(Ns("0.0000000015"), 2);  // halves away from zero
   EXPECT_EQ(Ns("-0.0000000015"), -2);
   EXPECT_EQ(Ns("0.00000000049999999999"), 0);
   EXPECT_EQ(Ns("1e-30"), 0);
@@ -57,8 +57,8 @@ TEST(ParseSecondsToNs, Limits) {
 }
 
 TEST(ParseSecondsToNs, Malformed) {
-  for (const char* bad : {"", "-", ".", "e5", "1e", "1e+", "1.2.3", "1,5", " 1", "1 ", "0x10", "nan", "inf",
-                          "1..2", "1e5.5", "--1", "+-1", "1_000"}) {
+  for (const char* bad : {"", "-", ".", "e5", "1e", "1e+", "1.2.3", "1,5", " 1", "1 ", "0x10", "nan", "inf", "1..2",
+                          "1e5.5", "--1", "+-1", "1_000"}) {
     const SecondsParseResult r = ParseSecondsToNs(bad);
     EXPECT_FALSE(r.t_ns.has_value()) << "'" << bad << "'";
     EXPECT_EQ(r.error, SecondsParseError::kSyntax) << bad;

@@ -23,7 +23,7 @@ struct StampedPose {
 /// A trajectory read from one file; t_ns never decreases (a repeated time is possible: SLAM systems
 /// re-emit a pose after relocalisation; association then uses the first pose of the run).
 struct Trajectory {
-  std::string source;  ///< the file it came from, for error messages ("" if built in memory)
+  std::string source;     ///< the file it came from, for error messages ("" if built in memory)
   bool has_times = true;  ///< false when t_ns holds indices, not times (KITTI without times.txt)
   std::vector<StampedPose> poses;
 };

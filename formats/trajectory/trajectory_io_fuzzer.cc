@@ -17,8 +17,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     std::istringstream in(text);
     try {
       read(in);
-    } catch (const rs::InputError&) {
-    }
+    } catch (const rs::InputError&) {}
   };
   attempt([](std::istream& in) { rs::ReadTumTrajectory(in, "fuzz.tum"); });
   attempt([](std::istream& in) { rs::ReadEurocTrajectory(in, "fuzz.csv"); });

@@ -18,13 +18,11 @@ namespace {
 
 namespace fs = std::filesystem;
 
-fs::path EvoData() {
-  return rs::test::DataRoot() / "kitti_euroc_trajectories" / "evo" / "test" / "data";
-}
+fs::path EvoData() { return rs::test::DataRoot() / "kitti_euroc_trajectories" / "evo" / "test" / "data"; }
 
-#define SKIP_WITHOUT_EVO_DATA()                                                                   \
-  if (!fs::exists(EvoData())) GTEST_SKIP() << "real trajectories not found at " << EvoData()    \
-                                           << " (set ROADSURVEY_DATA to the shared data folder)"
+#define SKIP_WITHOUT_EVO_DATA() \
+  if (!fs::exists(EvoData()))   \
+  GTEST_SKIP() << "real trajectories not found at " << EvoData() << " (set ROADSURVEY_DATA to the shared data folder)"
 
 /// Runs `read` on `text` and returns the InputError's location; fails the test if nothing is thrown.
 template <typename Read>
@@ -136,7 +134,7 @@ TEST(EurocTrajectory, Malformed) {
   at = ErrorAt("1.5,0,0,0,1,0,0,0\n", ReadEuroc, &msg);  // ns must be an integer
   EXPECT_EQ(at.column, 1);
   EXPECT_NE(msg.find("integer number of nanoseconds"), std::string::npos) << msg;
-  at = ErrorAt("1,0,,0,1,0,0,0\n", ReadEuroc, &msg);    // empty cell
+  at = ErrorAt("1,0,,0,1,0,0,0\n", ReadEuroc, &msg);  // empty cell
   EXPECT_EQ(at.column, 5);
   at = ErrorAt("1,0,0,0,1,0,0,0\n2,0,0,0,NaN,0,0,0\n", ReadEuroc, &msg);
   EXPECT_EQ(at.line, 2);
@@ -236,7 +234,7 @@ TEST(RealTrajectories, Nominal) {
   const fs::path d = EvoData();
   const Trajectory kitti = ReadTrajectory(d / "KITTI_00_gt.txt", std::nullopt, d / "KITTI_00_gt_times.txt");
   ASSERT_EQ(kitti.poses.size(), 4541u);
-  EXPECT_EQ(kitti.poses[1].t_ns, 103735900);                  // 1.037359e-01
+  EXPECT_EQ(kitti.poses[1].t_ns, 103735900);  // 1.037359e-01
   EXPECT_NEAR(kitti.poses[1].T_world_frame.translation().z(), 8.586941e-01, 1e-15);
   EXPECT_EQ(DetectTrajectoryFormat(d / "KITTI_00_ORB.txt"), TrajectoryFormat::kKitti);
 

@@ -75,12 +75,10 @@ double ParseFinite(const Field& f, const std::string& path, int64_t line, const 
   double v = 0;
   const auto [end, ec] = std::from_chars(t.data(), t.data() + t.size(), v);
   if (t.empty() || end != t.data() + t.size() || ec == std::errc::invalid_argument) {
-    throw InputError(InputLocation::Line(path, line, f.column),
-                     fmt::format("{}: '{}' is not a number", what, f.text));
+    throw InputError(InputLocation::Line(path, line, f.column), fmt::format("{}: '{}' is not a number", what, f.text));
   }
   if (ec == std::errc::result_out_of_range || !std::isfinite(v)) {
-    throw InputError(InputLocation::Line(path, line, f.column),
-                     fmt::format("{}: non-finite value '{}'", what, f.text));
+    throw InputError(InputLocation::Line(path, line, f.column), fmt::format("{}: non-finite value '{}'", what, f.text));
   }
   return v;
 }
@@ -104,21 +102,20 @@ int64_t ParseNsField(const Field& f, const std::string& path, int64_t line) {
   return v;
 }
 
-Eigen::Quaterniond CheckedQuaternion(double w, double x, double y, double z, const std::string& path,
-                                     int64_t line, int64_t column) {
+Eigen::Quaterniond CheckedQuaternion(double w, double x, double y, double z, const std::string& path, int64_t line,
+                                     int64_t column) {
   Eigen::Quaterniond q(w, x, y, z);
   const double norm = q.norm();
   if (!(std::abs(norm - 1.0) <= kQuaternionNormTolerance)) {
-    throw InputError(InputLocation::Line(path, line, column),
-                     fmt::format("quaternion norm {:.6g} is not 1 (allowed |norm - 1| <= {})", norm,
-                                 kQuaternionNormTolerance));
+    throw InputError(
+        InputLocation::Line(path, line, column),
+        fmt::format("quaternion norm {:.6g} is not 1 (allowed |norm - 1| <= {})", norm, kQuaternionNormTolerance));
   }
   q.coeffs() /= norm;
   return q;
 }
 
-Eigen::Matrix3d CheckedRotation(const Eigen::Matrix3d& R, const std::string& path, int64_t line,
-                                int64_t column) {
+Eigen::Matrix3d CheckedRotation(const Eigen::Matrix3d& R, const std::string& path, int64_t line, int64_t column) {
   const double orthogonality = (R.transpose() * R - Eigen::Matrix3d::Identity()).norm();
   if (!(orthogonality <= kRotationTolerance) || !(R.determinant() > 0)) {
     throw InputError(InputLocation::Line(path, line, column),
@@ -130,8 +127,8 @@ Eigen::Matrix3d CheckedRotation(const Eigen::Matrix3d& R, const std::string& pat
   return svd.matrixU() * svd.matrixV().transpose();
 }
 
-void CheckNotDecreasing(int64_t previous_t_ns, int64_t t_ns, bool has_previous, const std::string& path,
-                     int64_t line, int64_t column) {
+void CheckNotDecreasing(int64_t previous_t_ns, int64_t t_ns, bool has_previous, const std::string& path, int64_t line,
+                        int64_t column) {
   if (has_previous && t_ns < previous_t_ns) {
     throw InputError(InputLocation::Line(path, line, column),
                      fmt::format("timestamp {} is before the previous one ({}); times must not decrease",

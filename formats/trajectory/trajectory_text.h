@@ -59,19 +59,18 @@ int64_t ParseNsField(const Field& f, const std::string& path, int64_t line);
 
 /// Unit quaternion from (w, x, y, z): normalised if ||q| - 1| <= kQuaternionNormTolerance, else InputError
 /// at the column of the first quaternion field.
-Eigen::Quaterniond CheckedQuaternion(double w, double x, double y, double z, const std::string& path,
-                                     int64_t line, int64_t column);
+Eigen::Quaterniond CheckedQuaternion(double w, double x, double y, double z, const std::string& path, int64_t line,
+                                     int64_t column);
 inline constexpr double kQuaternionNormTolerance = 1e-3;
 
 /// Rotation from a 3x3 matrix that must be a rotation up to rounding of the printed digits:
 /// ||R^T R - I||_F <= kRotationTolerance and det > 0; returned re-orthonormalised, else InputError.
-Eigen::Matrix3d CheckedRotation(const Eigen::Matrix3d& R, const std::string& path, int64_t line,
-                                int64_t column);
+Eigen::Matrix3d CheckedRotation(const Eigen::Matrix3d& R, const std::string& path, int64_t line, int64_t column);
 inline constexpr double kRotationTolerance = 1e-3;
 
 /// Throws InputError when t_ns < previous. Equal times are accepted: real SLAM outputs repeat a stamp
 /// (evo's V102.txt has 4), and association keeps only the first pose of such a run.
-void CheckNotDecreasing(int64_t previous_t_ns, int64_t t_ns, bool has_previous, const std::string& path,
-                     int64_t line, int64_t column);
+void CheckNotDecreasing(int64_t previous_t_ns, int64_t t_ns, bool has_previous, const std::string& path, int64_t line,
+                        int64_t column);
 
 }  // namespace rs::trajectory_text

@@ -28,7 +28,7 @@ Trajectory ReadTumTrajectory(std::istream& in, const std::string& path) {
     StampedPose pose;
     pose.t_ns = ParseSecondsField(f[0], path, n);
     CheckNotDecreasing(trajectory.poses.empty() ? 0 : trajectory.poses.back().t_ns, pose.t_ns,
-                    !trajectory.poses.empty(), path, n, f[0].column);
+                       !trajectory.poses.empty(), path, n, f[0].column);
     double v[7];
     static const char* kNames[7] = {"tx", "ty", "tz", "qx", "qy", "qz", "qw"};
     for (int k = 0; k < 7; ++k) v[k] = ParseFinite(f[k + 1], path, n, kNames[k]);
@@ -50,8 +50,8 @@ void WriteTumTrajectory(std::ostream& out, const Trajectory& trajectory) {
   for (const StampedPose& p : trajectory.poses) {
     const Eigen::Vector3d t = p.T_world_frame.translation();
     const Eigen::Quaterniond q(p.T_world_frame.linear());
-    out << fmt::format("{} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g}\n",
-                       FormatNsAsSeconds(p.t_ns), t.x(), t.y(), t.z(), q.x(), q.y(), q.z(), q.w());
+    out << fmt::format("{} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g} {:.17g}\n", FormatNsAsSeconds(p.t_ns), t.x(),
+                       t.y(), t.z(), q.x(), q.y(), q.z(), q.w());
   }
 }
 

@@ -10,14 +10,14 @@ namespace rs {
 
 /// Road surface model: robust quadratic surface in 3D with obstacle removal.
 struct RoadModelOptions {
-  int fit_stride_px = 6;              ///< sample every n-th pixel in u and v for the fit
-  int ransac_iterations = 200;        ///< plane hypotheses tried to find the dominant surface
-  double ransac_inlier_m = 0.03;      ///< plane inlier band for the hypothesis score, m
-  double obstacle_height_m = 0.06;    ///< points this far above the road model are obstacles (cars, kerbs, people)
-  int irls_iterations = 6;            ///< reweighting passes of the Tukey-robust quadratic fit
-  double min_noise_m = 0.002;         ///< floor of the robust residual scale, m (keeps Tukey from collapsing)
-  double delta_px = 30;               ///< δ added to the transformed disparity so the road sits at δ (as fan2019)
-  unsigned random_seed = 1;           ///< RANSAC sampling seed (results are reproducible)
+  int fit_stride_px = 6;            ///< sample every n-th pixel in u and v for the fit
+  int ransac_iterations = 200;      ///< plane hypotheses tried to find the dominant surface
+  double ransac_inlier_m = 0.03;    ///< plane inlier band for the hypothesis score, m
+  double obstacle_height_m = 0.06;  ///< points this far above the road model are obstacles (cars, kerbs, people)
+  int irls_iterations = 6;          ///< reweighting passes of the Tukey-robust quadratic fit
+  double min_noise_m = 0.002;       ///< floor of the robust residual scale, m (keeps Tukey from collapsing)
+  double delta_px = 30;             ///< δ added to the transformed disparity so the road sits at δ (as fan2019)
+  unsigned random_seed = 1;         ///< RANSAC sampling seed (results are reproducible)
   /// Cell of the local correction of the quadratic model (robust median of road residuals per
   /// cell, damage excluded, smoothed): follows a crowned (roof-shaped) road; 0 = off.
   int local_cell_px = 24;
@@ -66,37 +66,37 @@ struct SegmentOptions {
   /// (paint edges; StrongEdgeMask), where the matcher may err by more than shallow damage, get
   /// their own local noise estimate: blurred gradient at least this many grey levels per px (0 = off) ...
   double edge_min_gradient = 10.0;
-  int edge_margin_px = 6;  ///< ... and at most this far from such a step, px
-  int slic_region_size_px = 16;       ///< SLIC superpixel size used to snap boundaries, px (0 = no SLIC)
+  int edge_margin_px = 6;        ///< ... and at most this far from such a step, px
+  int slic_region_size_px = 16;  ///< SLIC superpixel size used to snap boundaries, px (0 = no SLIC)
   /// In oblique views (a pixel ≥ 1.5× longer on the road along the column than across) shape the
   /// superpixels square on the road (same pixel count): square image superpixels there span a
   /// small pothole's whole length along the view.
   bool slic_ground = true;
-  double slic_ruler = 20.0;           ///< SLIC compactness
-  double superpixel_vote = 0.4;       ///< fraction of below-threshold pixels that makes a superpixel damage
-  double grow_fraction = 0.5;         ///< hysteresis: grow regions into pixels deeper than this fraction of the threshold
-  double invalid_fill_fraction = 0.3; ///< unmatched patches whose border is at least this fraction damage join it
-  int morph_radius_px = 2;            ///< opening/closing radius, px
-  double rim_depth_m = 0.001;         ///< calibrated: rim extension threshold floor (raised to the local road noise), m
-  double rim_depth_fraction = 0.03;   ///< calibrated: rim threshold at least this fraction of the instance's depth
-  bool rim_ring_mean = true;          ///< calibrated: then grow by whole rings whose mean depth is significant (ExtendToRim)
-  double min_area_m2 = 0.005;         ///< smallest damage kept when calibration is known, m²
-  int min_area_px = 400;              ///< smallest damage kept without calibration, px
+  double slic_ruler = 20.0;      ///< SLIC compactness
+  double superpixel_vote = 0.4;  ///< fraction of below-threshold pixels that makes a superpixel damage
+  double grow_fraction = 0.5;    ///< hysteresis: grow regions into pixels deeper than this fraction of the threshold
+  double invalid_fill_fraction = 0.3;  ///< unmatched patches whose border is at least this fraction damage join it
+  int morph_radius_px = 2;             ///< opening/closing radius, px
+  double rim_depth_m = 0.001;        ///< calibrated: rim extension threshold floor (raised to the local road noise), m
+  double rim_depth_fraction = 0.03;  ///< calibrated: rim threshold at least this fraction of the instance's depth
+  bool rim_ring_mean = true;   ///< calibrated: then grow by whole rings whose mean depth is significant (ExtendToRim)
+  double min_area_m2 = 0.005;  ///< smallest damage kept when calibration is known, m²
+  int min_area_px = 400;       ///< smallest damage kept without calibration, px
   void Check() const;
   static const OptionTable<SegmentOptions>& Table();
 };
 
 /// Thin dark ridges (cracks) in the left image.
 struct CrackOptions {
-  bool enabled = true;                ///< look for cracks at all
-  int min_scale_px = 5;               ///< smallest black-hat structuring element, px (odd)
-  int max_scale_px = 15;              ///< largest black-hat structuring element, px (odd)
+  bool enabled = true;    ///< look for cracks at all
+  int min_scale_px = 5;   ///< smallest black-hat structuring element, px (odd)
+  int max_scale_px = 15;  ///< largest black-hat structuring element, px (odd)
   /// With pixel sizes on the road (calibrated): the black-hat element spans this much road
   /// (rounded to an odd pixel count per image row, clamped to [min_scale_px, max_scale_px]):
   /// dark lines narrower respond fully. A fixed pixel scale spans 4× more road near an oblique
   /// camera than far from it and there matched the gaps between coarse aggregate; 0 = pixel scales.
   double element_width_m = 0.03;
-  double k_sigma = 5.0;               ///< response threshold: median + k·σ(MAD) of the black-hat response
+  double k_sigma = 5.0;  ///< response threshold: median + k·σ(MAD) of the black-hat response
   /// Cell of the local response level (median, MAD per cell, interpolated): texture resolved
   /// near the camera responds more than the blurred far road; 0 = one level per frame, px.
   int level_cell_px = 64;
@@ -104,19 +104,19 @@ struct CrackOptions {
   /// length (8 directions, best minus their mean) stands k_sigma above its local level, and the
   /// pixel's own response 1 σ above its level; 0 = the pixel response alone at k_sigma, px.
   int line_length_px = 21;
-  double min_length_m = 0.15;         ///< shorter thin components are texture, not cracks, m
-  double min_elongation = 6.0;        ///< skeleton length / mean width below this is a blob, not a crack
-  double max_width_m = 0.05;          ///< wider dark regions are not cracks, m
-  int min_length_px = 40;             ///< without calibration: shortest crack, px
+  double min_length_m = 0.15;   ///< shorter thin components are texture, not cracks, m
+  double min_elongation = 6.0;  ///< skeleton length / mean width below this is a blob, not a crack
+  double max_width_m = 0.05;    ///< wider dark regions are not cracks, m
+  int min_length_px = 40;       ///< without calibration: shortest crack, px
   void Check() const;
   static const OptionTable<CrackOptions>& Table();
 };
 
 /// Measurement and classification.
 struct MeasureOptions {
-  double sigma_disparity_px = 0.25;     ///< stereo matching noise σ_d used for σ_Z = Z²σ_d/(fB), px
-  double pothole_min_depth_m = 0.013;   ///< shallower depressions are "other" (ASTM smallest graded depth)
-  double pothole_min_diameter_m = 0.10; ///< narrower depressions are "other" (ASTM smallest graded diameter)
+  double sigma_disparity_px = 0.25;      ///< stereo matching noise σ_d used for σ_Z = Z²σ_d/(fB), px
+  double pothole_min_depth_m = 0.013;    ///< shallower depressions are "other" (ASTM smallest graded depth)
+  double pothole_min_diameter_m = 0.10;  ///< narrower depressions are "other" (ASTM smallest graded diameter)
   /// Width of the part at least half the max depth deep (largest inscribed circle): a deep but
   /// narrow crack, widened by segmentation, is not a pothole.
   double pothole_min_core_width_m = 0.05;
@@ -141,7 +141,7 @@ struct MeasureOptions {
   /// Calibrated: quantile of a noise cell's upward deviations taken as its error reach (0.999 of
   /// the ~500 samples of a 96 px cell: about its largest).
   double spike_quantile = 0.999;
-  double depth_percentile = 0.99;       ///< max depth = this percentile of per-pixel depth (rejects single-pixel spikes)
+  double depth_percentile = 0.99;  ///< max depth = this percentile of per-pixel depth (rejects single-pixel spikes)
   /// Line of sight over the near rim (floor_visibility.h): the floor counts as seen when the
   /// deepest seen surface reaches this many image rows of clearance (Z/f each) farther from the
   /// rim's shadow line than where it begins; else it may be hidden and the depth is a lower bound.
@@ -166,21 +166,21 @@ struct MeasureOptions {
 /// Severity tables and intervention thresholds. Defaults: ASTM D6433 and FHWA
 /// LTPP as in MISSION.md; intervention: UK 40 mm depth and 300 mm width.
 struct SeverityOptions {
-  double astm_depth_low_m = 0.013;      ///< ASTM depth bins: (13, 25], (25, 50], > 50 mm
+  double astm_depth_low_m = 0.013;  ///< ASTM depth bins: (13, 25], (25, 50], > 50 mm
   double astm_depth_mid_m = 0.025;
   double astm_depth_high_m = 0.050;
-  double astm_diameter_min_m = 0.100;   ///< ASTM diameter bins: [100, 200], (200, 450], (450, 750] mm
+  double astm_diameter_min_m = 0.100;  ///< ASTM diameter bins: [100, 200], (200, 450], (450, 750] mm
   double astm_diameter_mid1_m = 0.200;
   double astm_diameter_mid2_m = 0.450;
-  double astm_diameter_max_m = 0.750;   ///< wider: counted as area / astm_equivalent_area_m2 potholes
+  double astm_diameter_max_m = 0.750;  ///< wider: counted as area / astm_equivalent_area_m2 potholes
   double astm_equivalent_area_m2 = 0.5;
   double fhwa_pothole_min_diameter_m = 0.150;  ///< FHWA: smaller depressions are not potholes
-  double fhwa_pothole_low_m = 0.025;    ///< FHWA pothole depth: low ≤ 25, moderate ≤ 50, high > 50 mm
+  double fhwa_pothole_low_m = 0.025;           ///< FHWA pothole depth: low ≤ 25, moderate ≤ 50, high > 50 mm
   double fhwa_pothole_mid_m = 0.050;
-  double fhwa_crack_low_m = 0.006;      ///< FHWA crack width: low ≤ 6, moderate ≤ 19, high > 19 mm
+  double fhwa_crack_low_m = 0.006;  ///< FHWA crack width: low ≤ 6, moderate ≤ 19, high > 19 mm
   double fhwa_crack_mid_m = 0.019;
-  double intervention_depth_m = 0.040;  ///< potholes at least this deep ...
-  double intervention_width_m = 0.300;  ///< ... and at least this wide need intervention
+  double intervention_depth_m = 0.040;        ///< potholes at least this deep ...
+  double intervention_width_m = 0.300;        ///< ... and at least this wide need intervention
   double intervention_crack_width_m = 0.019;  ///< cracks at least this wide need intervention
   void Check() const;
   static const OptionTable<SeverityOptions>& Table();

@@ -86,7 +86,10 @@ namespace {
 struct DamageFrame {
   DamageFrame(const cv::Mat& input_disparity_px, const cv::Mat& left_image, const RectifiedStereo& g,
               const DamageOptions& o, const cv::Mat& sharp_disparity_px)
-      : input_disparity_px(input_disparity_px), left_image(left_image), g(g), o(o),
+      : input_disparity_px(input_disparity_px),
+        left_image(left_image),
+        g(g),
+        o(o),
         sharp_disparity_px(sharp_disparity_px),
         want_edges(o.segment.noise_cell_px > 0 && !left_image.empty() && o.segment.edge_min_gradient > 0),
         want_cracks(o.crack.enabled && !left_image.empty()) {}
@@ -99,17 +102,17 @@ struct DamageFrame {
   const bool want_edges;   ///< the paint-edge noise class applies
   const bool want_cracks;  ///< crack detection applies
 
-  FrameDamage f;          ///< the result
-  cv::Mat disparity_px;   ///< within the analysed range (a new image: the caller's disparity is not changed)
-  RoadRelief evaluated;   ///< the road model's relief before FinishRoadRelief, kept for the refinement
-  ReliefImage relief;     ///< the segmentation's input: transformed disparity on the road (valid, not obstacle)
-  cv::Mat area;           ///< m² of road per pixel (NaN off-road)
-  cv::Mat islands;        ///< road cut off from the road (road_islands.h)
+  FrameDamage f;         ///< the result
+  cv::Mat disparity_px;  ///< within the analysed range (a new image: the caller's disparity is not changed)
+  RoadRelief evaluated;  ///< the road model's relief before FinishRoadRelief, kept for the refinement
+  ReliefImage relief;    ///< the segmentation's input: transformed disparity on the road (valid, not obstacle)
+  cv::Mat area;          ///< m² of road per pixel (NaN off-road)
+  cv::Mat islands;       ///< road cut off from the road (road_islands.h)
   bool has_islands = false;
-  ReliefScale scale;      ///< the frame's road level and σ
-  cv::Mat reliable;       ///< road pixels off paint edges: the noise map's samples
-  cv::Mat noise;          ///< the seeds' noise (paint edges their own class)
-  cv::Mat road_noise;     ///< the pothole rule's noise (two-sided after the rim pass)
+  ReliefScale scale;   ///< the frame's road level and σ
+  cv::Mat reliable;    ///< road pixels off paint edges: the noise map's samples
+  cv::Mat noise;       ///< the seeds' noise (paint edges their own class)
+  cv::Mat road_noise;  ///< the pothole rule's noise (two-sided after the rim pass)
   DepressionSegmentation seg;
   cv::Mat measure_noise;  ///< the pothole rule's noise with the spike rule folded in
   // Written by the image work alongside the road model and the segmentation.
@@ -123,8 +126,7 @@ struct DamageFrame {
 // it is joined in "road mask".
 void StartPaintEdges(DamageFrame& s) {
   s.image_work.run([&s] {
-    if (s.want_edges)
-      s.edges = StrongEdgeMask(s.left_image, s.o.segment.edge_min_gradient, s.o.segment.edge_margin_px);
+    if (s.want_edges) s.edges = StrongEdgeMask(s.left_image, s.o.segment.edge_min_gradient, s.o.segment.edge_margin_px);
   });
 }
 
@@ -170,8 +172,8 @@ void BuildNoiseMaps(DamageFrame& s) {
   if (cell_px <= 0) return;
   // A new image where edges are left out: relief.valid itself must not change.
   s.reliable = s.edges.empty() ? s.relief.valid : cv::Mat(s.relief.valid & (s.edges == 0));
-  s.noise = LocalReliefNoise(s.relief.value, s.reliable, s.scale.road_level, cell_px, s.scale.sigma,
-                             kStructureSigmaRatio);
+  s.noise =
+      LocalReliefNoise(s.relief.value, s.reliable, s.scale.road_level, cell_px, s.scale.sigma, kStructureSigmaRatio);
   s.road_noise = s.noise;  // shared until the edge class changes `noise`
   if (s.edges.empty() || cv::countNonZero(s.edges) == 0) return;
   const cv::Mat edge_noise =
@@ -255,11 +257,10 @@ void BuildPotholeNoise(DamageFrame& s) {
 
 void Measure(DamageFrame& s) {
   // The volume is summed on the disparity stage's sharp image where given (sharp_disparity.h).
-  const cv::Mat sharp_depth_mm =
-      s.sharp_disparity_px.empty()
-          ? cv::Mat()
-          : SharpDepthBelowMm(s.sharp_disparity_px, s.disparity_px, s.f.labels, s.g, s.f.surface,
-                              s.f.relief.correction_mm);
+  const cv::Mat sharp_depth_mm = s.sharp_disparity_px.empty()
+                                     ? cv::Mat()
+                                     : SharpDepthBelowMm(s.sharp_disparity_px, s.disparity_px, s.f.labels, s.g,
+                                                         s.f.surface, s.f.relief.correction_mm);
   s.f.instances =
       MeasureDepressions(s.f.labels, s.f.relief, s.g, s.f.surface, s.o.measure, s.measure_noise, sharp_depth_mm);
 }
@@ -366,8 +367,8 @@ TransformedSegmentation SegmentTransformedDisparity(const cv::Mat& transformed, 
     d.pixel_count = cv::countNonZero(seg.labels == id);
     d.outline_px = OutlineOf(seg.labels, id);
     // Confidence: mean depth of the region in road σ, relative to the threshold.
-    const double mean_z = (cv::mean(relief.value, (seg.labels == id) & relief.valid)[0] - seg.scale.road_level) /
-                          seg.scale.sigma;
+    const double mean_z =
+        (cv::mean(relief.value, (seg.labels == id) & relief.valid)[0] - seg.scale.road_level) / seg.scale.sigma;
     d.confidence = std::clamp(-mean_z / (2.0 * seg.threshold_sigma), 0.0, 1.0);
     d.astm.rule = "ASTM D6433: no metric depth from a transformed disparity -> not graded";
     d.fhwa.rule = "FHWA LTPP: no metric depth from a transformed disparity -> not graded";

@@ -86,5 +86,4 @@ TransformedSegmentation SegmentTransformedDisparity(const cv::Mat& transformed, 
                                                     const DamageOptions& options,
                                                     std::optional<ReliefScale> scale = std::nullopt);
 
-
 }  // namespace rs

@@ -33,7 +33,7 @@ TEST(DamageOutput, Nominal) {
   ASSERT_EQ(j["detections"].size(), 1u);
   EXPECT_EQ(j["detections"][0]["type"], "pothole");
   EXPECT_DOUBLE_EQ(j["detections"][0]["max_depth_m"].get<double>(), f.instances[0].max_depth_m);
-  EXPECT_TRUE(j["detections"][0]["length_m"].is_null());  // not a crack: unknown, never 0
+  EXPECT_TRUE(j["detections"][0]["length_m"].is_null());         // not a crack: unknown, never 0
   EXPECT_EQ(j["detections"][0]["astm_d6433"]["level"], "high");  // 60 mm deep, 500 mm wide
   WriteDetectionsJson(js, f.instances);
   EXPECT_GT(std::filesystem::file_size(js), 100u);
@@ -130,8 +130,7 @@ TEST(DetectDamage, MismatchOnObstacleIsNoDamage) {
   d(patch) = road_d(patch) * 0.95;
   auto on_slab = [&](const FrameDamage& f) {
     int n = 0;
-    for (const DamageInstance& i : f.instances)
-      n += cv::countNonZero((f.labels(slab) == i.id)) > 0;
+    for (const DamageInstance& i : f.instances) n += cv::countNonZero((f.labels(slab) == i.id)) > 0;
     return n;
   };
   // Without the island rule the patch is a depression (the failure this test is about).

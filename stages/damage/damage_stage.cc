@@ -35,15 +35,14 @@ void DamageStageOptions::Check() const {
 }
 
 const OptionTable<DamageStageOptions>& DamageStageOptions::Table() {
-  static const auto t =
-      OptionTable<DamageStageOptions>()
-          .Include("", &DamageStageOptions::damage, DamageOptionsTable())
-          .Add("write_overlay", &DamageStageOptions::write_overlay,
-               "write an overlay PNG per frame (damage outlined and labelled on the left image)")
-          .Add("write_relief", &DamageStageOptions::write_relief,
-               "write the transformed disparity and the depth below the road (float TIFFs) per frame")
-          .Add("skip_bad_frames", &DamageStageOptions::skip_bad_frames,
-               "skip and count frames whose inputs cannot be read instead of failing");
+  static const auto t = OptionTable<DamageStageOptions>()
+                            .Include("", &DamageStageOptions::damage, DamageOptionsTable())
+                            .Add("write_overlay", &DamageStageOptions::write_overlay,
+                                 "write an overlay PNG per frame (damage outlined and labelled on the left image)")
+                            .Add("write_relief", &DamageStageOptions::write_relief,
+                                 "write the transformed disparity and the depth below the road (float TIFFs) per frame")
+                            .Add("skip_bad_frames", &DamageStageOptions::skip_bad_frames,
+                                 "skip and count frames whose inputs cannot be read instead of failing");
   return t;
 }
 
@@ -51,8 +50,9 @@ StageInfo DamageStage::Info() {
   StageInfo info;
   info.name = "damage";
   info.version = 1;
-  info.doc = "Per frame: robust 3-D road surface (obstacles removed), depth below the road, unsupervised damage "
-             "segmentation, per-damage area, depth, volume, size, crack width/length, ASTM/FHWA severity.";
+  info.doc =
+      "Per frame: robust 3-D road surface (obstacles removed), depth below the road, unsupervised damage "
+      "segmentation, per-damage area, depth, volume, size, crack width/length, ASTM/FHWA severity.";
   info.inputs = {"frames", "calibration", "disparity"};
   info.outputs = {"damage"};
   info.published = {{"frames", "damage"}};
@@ -90,10 +90,11 @@ void DamageStage::Run(StageContext& ctx, const DamageStageOptions& o) const {
         nlohmann::json detections = {{"frame", f.id.value},
                                      {"t_ns", f.t_ns},
                                      {"threshold_sigma", result.threshold_sigma},
-                                     {"road", {{"camera_height_m", result.surface.camera_height_m},
-                                               {"residual_sigma_m", result.surface.residual_sigma_m},
-                                               {"inliers", result.surface.inliers},
-                                               {"obstacle_points", result.surface.obstacle_points}}}};
+                                     {"road",
+                                      {{"camera_height_m", result.surface.camera_height_m},
+                                       {"residual_sigma_m", result.surface.residual_sigma_m},
+                                       {"inliers", result.surface.inliers},
+                                       {"obstacle_points", result.surface.obstacle_points}}}};
         detections.update(DetectionsToJson(result.instances));  // "schema" + "detections"
         WriteJsonAtomic(tmp / "detections.json", detections);
         if (o.write_overlay)

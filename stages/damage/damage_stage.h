@@ -11,9 +11,9 @@ namespace rs {
 /// The algorithm's options (each sub-struct registered once) plus what to write.
 struct DamageStageOptions {
   DamageOptions damage;
-  bool write_overlay = true;   ///< overlay PNG (damage outlined and labelled on the left image)
-  bool write_relief = true;    ///< transformed disparity and depth below the road (float TIFFs)
-  bool skip_bad_frames = true; ///< skip and count frames whose inputs cannot be read
+  bool write_overlay = true;    ///< overlay PNG (damage outlined and labelled on the left image)
+  bool write_relief = true;     ///< transformed disparity and depth below the road (float TIFFs)
+  bool skip_bad_frames = true;  ///< skip and count frames whose inputs cannot be read
 
   void Check() const;
   static const OptionTable<DamageStageOptions>& Table();

@@ -36,18 +36,18 @@ struct SeverityGrade {
 /// One damage instance with its measurements. Metric fields are NaN where
 /// unknown (no calibration) so that a missing value is never a silent zero.
 struct DamageInstance {
-  int id = 0;                        ///< label value in the instance image (1..65535)
+  int id = 0;  ///< label value in the instance image (1..65535)
   DamageType type = DamageType::kOther;
-  std::vector<cv::Point> outline_px;         ///< outer boundary, pixel corners of the label
-  std::vector<cv::Point3d> outline_cam_m;    ///< outline on the road surface, camera frame, m
+  std::vector<cv::Point> outline_px;       ///< outer boundary, pixel corners of the label
+  std::vector<cv::Point3d> outline_cam_m;  ///< outline on the road surface, camera frame, m
   int pixel_count = 0;
-  double area_m2 = kUnknown;                ///< area projected on the road plane
+  double area_m2 = kUnknown;  ///< area projected on the road plane
   /// Deepest point below the road surface: the best estimate. Where the near rim hides part of
   /// the floor (oblique views, floor_visibility.h) the seen profile completed behind the rim;
   /// else what the frame sees (= max_depth_seen_m).
   double max_depth_m = kUnknown;
-  double max_depth_seen_m = kUnknown;       ///< deepest point the frame sees (99th percentile of the seen depths)
-  double mean_depth_m = kUnknown;           ///< mean depth below the road surface over the seen surface
+  double max_depth_seen_m = kUnknown;  ///< deepest point the frame sees (99th percentile of the seen depths)
+  double mean_depth_m = kUnknown;      ///< mean depth below the road surface over the seen surface
   /// Volume between road surface and damage: the best estimate (the seen volume plus the
   /// completed part the near rim hides, floor_visibility.h).
   double volume_m3 = kUnknown;
@@ -64,7 +64,7 @@ struct DamageInstance {
   /// Depressions: σ of volume_seen_m3 (depth noise over the region, the outline's uncertainty at
   /// the mean depth); where the floor may be hidden volume_upper_m3 bounds the rest.
   double sigma_volume_m3 = kUnknown;
-  double confidence = 0;             ///< 0..1, see docs/stages/damage.md
+  double confidence = 0;  ///< 0..1, see docs/stages/damage.md
   /// Line of sight over the near rim (floor_visibility.h; depressions only). false: the rim
   /// may hide part of the floor from this viewpoint: max_depth_seen_m is then a lower bound,
   /// max_depth_bound_m an upper one and max_depth_m the estimate between them.
@@ -76,10 +76,10 @@ struct DamageInstance {
   /// volume with that shadow filled to the bound (+2 σ); the true volume lies in
   /// [volume_seen_m3 − 2 σ_Z·area_m2, volume_upper_m3]. NaN when the volume is seen.
   double volume_upper_m3 = kUnknown;
-  SeverityGrade astm;                ///< ASTM D6433 pothole grade (potholes only)
-  SeverityGrade fhwa;                ///< FHWA LTPP grade (potholes and cracks)
-  bool intervention = false;         ///< exceeds the configured intervention thresholds
-  std::string intervention_rule;     ///< why (or why not) it needs intervention
+  SeverityGrade astm;             ///< ASTM D6433 pothole grade (potholes only)
+  SeverityGrade fhwa;             ///< FHWA LTPP grade (potholes and cracks)
+  bool intervention = false;      ///< exceeds the configured intervention thresholds
+  std::string intervention_rule;  ///< why (or why not) it needs intervention
 };
 
 }  // namespace rs

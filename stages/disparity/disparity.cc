@@ -61,23 +61,27 @@ void DisparityParams::Check() const {
   if (gpt_num_disparities < 2 || gpt_num_disparities > 1024)
     fail("gpt_num_disparities", std::to_string(gpt_num_disparities), "2 <= gpt_num_disparities <= 1024");
   if (!(gpt_delta_px >= 0) || !(gpt_delta_px < gpt_num_disparities))
-    fail("gpt_delta_px", Num(gpt_delta_px), "0 <= gpt_delta_px < gpt_num_disparities (" + std::to_string(gpt_num_disparities) + ")");
+    fail("gpt_delta_px", Num(gpt_delta_px),
+         "0 <= gpt_delta_px < gpt_num_disparities (" + std::to_string(gpt_num_disparities) + ")");
   if (!(gpt_headroom_px >= 0)) fail("gpt_headroom_px", Num(gpt_headroom_px), "gpt_headroom_px >= 0");
   if (fill_min_neighbours < 0 || fill_min_neighbours > 8)
     fail("fill_min_neighbours", std::to_string(fill_min_neighbours), "0 <= fill_min_neighbours <= 8");
   if (refine_window < 0 || (refine_window > 0 && refine_window % 2 == 0) || refine_window > 31)
     fail("refine_window", std::to_string(refine_window), "refine_window = 0 or odd, <= 31");
-  if (refine_smooth_window < 0 || (refine_smooth_window > 0 && refine_smooth_window % 2 == 0) || refine_smooth_window > 63)
+  if (refine_smooth_window < 0 || (refine_smooth_window > 0 && refine_smooth_window % 2 == 0) ||
+      refine_smooth_window > 63)
     fail("refine_smooth_window", std::to_string(refine_smooth_window), "refine_smooth_window = 0 or odd, <= 63");
   if (!(refine_smooth_agree_px >= 0))
     fail("refine_smooth_agree_px", Num(refine_smooth_agree_px), "refine_smooth_agree_px >= 0");
   if (refine_highpass_px < 3 || refine_highpass_px % 2 == 0 || refine_highpass_px > 63)
-    fail("refine_highpass_px", std::to_string(refine_highpass_px), "refine_highpass_px odd, 3 <= refine_highpass_px <= 63");
+    fail("refine_highpass_px", std::to_string(refine_highpass_px),
+         "refine_highpass_px odd, 3 <= refine_highpass_px <= 63");
   if (!(refine_max_coherence > 0 && refine_max_coherence <= 1))
     fail("refine_max_coherence", Num(refine_max_coherence), "0 < refine_max_coherence <= 1");
   if (!(refine_shift_ratio == 0 || refine_shift_ratio >= 1))
     fail("refine_shift_ratio", Num(refine_shift_ratio), "refine_shift_ratio = 0 or >= 1");
-  if (speckle_window_size < 0) fail("speckle_window_size", std::to_string(speckle_window_size), "speckle_window_size >= 0");
+  if (speckle_window_size < 0)
+    fail("speckle_window_size", std::to_string(speckle_window_size), "speckle_window_size >= 0");
   if (!(gpt_min_valid_fraction >= 0 && gpt_min_valid_fraction <= 1))
     fail("gpt_min_valid_fraction", Num(gpt_min_valid_fraction), "0 <= gpt_min_valid_fraction <= 1");
   if (!(speckle_max_diff_px >= 0)) fail("speckle_max_diff_px", Num(speckle_max_diff_px), "speckle_max_diff_px >= 0");
@@ -373,14 +377,16 @@ void HighPass(const cv::Mat& img, int box, cv::Mat* out) {
 // With kFit: also fit[u] = G^2 (k_n - e_n / G_n - c)^2 = (kc G - 24 e)^2 (kc = k - c), the pixel's
 // share of the window's squared residual about the offset c (see RefineFit).
 template <bool kFit>
-__attribute__((noinline)) void RefineTerms(const int16_t* __restrict L, const int16_t* __restrict Tk, const uint8_t* __restrict m,
-                        int k, int u0, int n, float* __restrict num, float* __restrict den, int kc, float* __restrict fit) {
+__attribute__((noinline)) void RefineTerms(const int16_t* __restrict L, const int16_t* __restrict Tk,
+                                           const uint8_t* __restrict m, int k, int u0, int n, float* __restrict num,
+                                           float* __restrict den, int kc, float* __restrict fit) {
   for (int u = u0; u < u0 + n; ++u) {
     // 24 x the mean of both views' derivatives: the derivative at the midpoint of the step, so
     // one Gauss-Newton step is exact for quadratic intensity profiles (efficient second-order
     // minimisation), each by the 5-tap difference (8 (I+1 - I-1) - (I+2 - I-2)) / 12 (central
     // differences underestimate the slope of fine texture by sin(w)/w and the step overshoots).
-    const int g = 8 * (Tk[u + 1] - Tk[u - 1]) - (Tk[u + 2] - Tk[u - 2]) + 8 * (L[u + 1] - L[u - 1]) - (L[u + 2] - L[u - 2]);
+    const int g =
+        8 * (Tk[u + 1] - Tk[u - 1]) - (Tk[u + 2] - Tk[u - 2]) + 8 * (L[u + 1] - L[u - 1]) - (L[u + 2] - L[u - 2]);
     const int e = L[u] - Tk[u];
     const int g2 = g * g;
     // The pixel's step is 24 e G / G^2; one beyond 1 px means SGM's winner there is off by a
@@ -401,8 +407,8 @@ __attribute__((noinline)) void RefineTerms(const int16_t* __restrict L, const in
 // One row of terms: runs of pixels sharing one integer disparity (long ones after the per-pixel
 // warp: the road's residual is delta everywhere) go to RefineTerms whole, the run's ends that
 // would read outside either image get no terms.
-void RefineTermsRow(const int16_t* L, const int16_t* T, const uint8_t* m, const float* d, int W, int* k_row,
-                    float* num, float* den, int c = 0, float* fit = nullptr) {
+void RefineTermsRow(const int16_t* L, const int16_t* T, const uint8_t* m, const float* d, int W, int* k_row, float* num,
+                    float* den, int c = 0, float* fit = nullptr) {
   for (int u = 0; u < W; ++u) k_row[u] = static_cast<int>(std::nearbyint(d[u]));
   for (int u0 = 0; u0 < W;) {
     const int k = k_row[u0];
@@ -425,8 +431,8 @@ void RefineTermsRow(const int16_t* L, const int16_t* T, const uint8_t* m, const 
 
 // RefineSubpixel's last step for one row: l = num / den where valid, textured enough and within
 // 1 px of SGM's value `d`; else d.
-void RefineApplyRow(const float* __restrict sum_n, const float* __restrict sum_d, const uint8_t* __restrict m,
-                    int W, float min_weight, const float* __restrict d, float* __restrict out) {
+void RefineApplyRow(const float* __restrict sum_n, const float* __restrict sum_d, const uint8_t* __restrict m, int W,
+                    float min_weight, const float* __restrict d, float* __restrict out) {
   for (int u = 0; u < W; ++u) {
     const float l = sum_n[u] / std::max(sum_d[u], 1.0f);
     const bool take = (m[u] != 0) & (sum_d[u] >= min_weight) & (std::abs(l - d[u]) <= 1.0f);
@@ -504,7 +510,7 @@ void RefinePass(const cv::Mat& ref_hp, const cv::Mat& target_hp, const cv::Mat& 
   // Bands of rows, each on its own: the terms of the band's rows and r rows either side (the
   // window's reach; recomputed by both neighbouring bands — cheaper than a second parallel pass
   // over full-size maps), column sums sliding down the band, then each row's horizontal sums.
-  constexpr int kBand = 96;  // the 21-px window's 20 halo rows cost 21 % of a band's terms
+  constexpr int kBand = 96;          // the 21-px window's 20 halo rows cost 21 % of a band's terms
   CV_Assert(out->data != sgm.data);  // a band's halo rows are its neighbours' output rows
   out->create(sgm.size(), CV_32F);
   if (agree) agree->create(sgm.size(), CV_16U);
@@ -572,8 +578,8 @@ void RefinePass(const cv::Mat& ref_hp, const cv::Mat& target_hp, const cv::Mat& 
 // `local` (an estimate of the pixel's own that no wider window blurred) than the centred value: on a
 // sloping wall every window fits a ramp equally badly and the flat road beside it fits best, and
 // without this test the wall's pixels would take the road's value.
-void ShiftWindows(const cv::Mat& sgm, const cv::Mat& valid, const RefineFit& fit, const cv::Mat& local, int r, float ratio,
-                  cv::Mat* out) {
+void ShiftWindows(const cv::Mat& sgm, const cv::Mat& valid, const RefineFit& fit, const cv::Mat& local, int r,
+                  float ratio, cv::Mat* out) {
   const int W = sgm.cols, H = sgm.rows;
   constexpr float kInf = std::numeric_limits<float>::infinity();
   tbb::parallel_for(tbb::blocked_range<int>(0, H, 32), [&](const tbb::blocked_range<int>& rows) {
@@ -583,16 +589,17 @@ void ShiftWindows(const cv::Mat& sgm, const cv::Mat& valid, const RefineFit& fit
       const float* __restrict lc = fit.value.ptr<float>(v);
       const float* __restrict ll = local.ptr<float>(v);
       std::fill(best_s.begin(), best_s.end(), kInf);
-      float *__restrict bs = best_s.data(), *__restrict bl = best_l.data();
+      float* __restrict bs = best_s.data(), * __restrict bl = best_l.data();
       for (int dv = -r; dv <= r; dv += r) {
         if (v + dv < 0 || v + dv >= H) continue;
-        const float *__restrict cs = fit.spread.ptr<float>(v + dv), *__restrict cl = fit.value.ptr<float>(v + dv);
+        const float* __restrict cs = fit.spread.ptr<float>(v + dv), * __restrict cl = fit.value.ptr<float>(v + dv);
         for (int du = -r; du <= r; du += r) {
           if (du == 0 && dv == 0) continue;
           const int lo = std::max(0, -du), hi = std::min(W, W - du);
           for (int u = lo; u < hi; ++u) {  // branch-free: vectorises
             const float s = cs[u + du], l = cl[u + du];
-            const bool better = (s < bs[u]) & (std::abs(l - d[u]) <= 1.0f) & (std::abs(l - ll[u]) <= std::abs(lc[u] - ll[u]));
+            const bool better =
+                (s < bs[u]) & (std::abs(l - d[u]) <= 1.0f) & (std::abs(l - ll[u]) <= std::abs(lc[u] - ll[u]));
             bs[u] = better ? s : bs[u];
             bl[u] = better ? l : bl[u];
           }
@@ -691,8 +698,9 @@ void RefineSubpixel(const cv::Mat& ref, const cv::Mat& target, cv::Mat* disparit
   thread_local cv::Mat tls_sgm_in, tls_smooth, tls_terms, tls_agree;
   cv::Mat &sgm_in = tls_sgm_in, &smoothed = tls_smooth, &terms = tls_terms, &agree_map = tls_agree;
   disparity->copyTo(sgm_in);  // SGM's values: both passes read their integer winners there
-  RefinePass(ref_hp, target_hp, sgm_in, disparity, valid, valid, o.window, min_weight(o.window), smooth ? &agree_map : nullptr,
-             static_cast<float>(o.smooth_agree_px), nullptr, o.window_rows.empty() ? nullptr : &o.window_rows);
+  RefinePass(ref_hp, target_hp, sgm_in, disparity, valid, valid, o.window, min_weight(o.window),
+             smooth ? &agree_map : nullptr, static_cast<float>(o.smooth_agree_px), nullptr,
+             o.window_rows.empty() ? nullptr : &o.window_rows);
   if (!smooth) {
     if (window_value) disparity->copyTo(*window_value);
     return;
@@ -708,9 +716,10 @@ void RefineSubpixel(const cv::Mat& ref, const cv::Mat& target, cv::Mat* disparit
   // refinement windows").
   thread_local RefineFit tls_fit;
   const bool shift = o.shift_ratio > 0;
-  RefinePass(ref_hp, target_hp, sgm_in, &smoothed, valid, edges ? terms : valid, o.smooth_window, kSmoothMinWeight, nullptr, 0,
-             shift ? &tls_fit : nullptr);
-  if (shift) ShiftWindows(sgm_in, valid, tls_fit, *disparity, o.smooth_window / 2, static_cast<float>(o.shift_ratio), &smoothed);
+  RefinePass(ref_hp, target_hp, sgm_in, &smoothed, valid, edges ? terms : valid, o.smooth_window, kSmoothMinWeight,
+             nullptr, 0, shift ? &tls_fit : nullptr);
+  if (shift)
+    ShiftWindows(sgm_in, valid, tls_fit, *disparity, o.smooth_window / 2, static_cast<float>(o.shift_ratio), &smoothed);
   // Elsewhere the smooth window's value is taken where it agrees with the small window's within
   // smooth_agree_px (no structure the small window resolves and the large one would blur, e.g. a
   // pothole's wall), the value is at most smooth_max_px (the road and below it, not obstacles) and
@@ -719,7 +728,7 @@ void RefineSubpixel(const cv::Mat& ref, const cv::Mat& target, cv::Mat* disparit
   if (window_value) window_value->create(valid.size(), CV_32F);
   tbb::parallel_for(tbb::blocked_range<int>(0, valid.rows, 32), [&](const tbb::blocked_range<int>& r) {
     for (int v = r.begin(); v < r.end(); ++v) {
-      const float *__restrict b = smoothed.ptr<float>(v), *__restrict s0 = sgm_in.ptr<float>(v);
+      const float* __restrict b = smoothed.ptr<float>(v), * __restrict s0 = sgm_in.ptr<float>(v);
       const uint16_t* __restrict agree2 = agree_map.ptr<uint16_t>(v);  // squared, 1/10000 px^2
       const uint8_t* __restrict e = edges ? edge.ptr<uint8_t>(v) : valid.ptr<uint8_t>(v);
       const uint8_t* __restrict m = valid.ptr<uint8_t>(v);
@@ -832,9 +841,11 @@ SgmRun RunGptSgm(const cv::Mat& left, const cv::Mat& right, const DisparityParam
   run.kappa = ComputeGptShift(res.road, W, H, P.gpt_delta_px);
   const std::vector<double>& kappa = run.kappa;
   double span = 0;  // largest road residual above the row minimum
-  for (int v = 0; v < H; ++v) span = std::max(span, std::max(res.road.At(0, v), res.road.At(W - 1, v)) - res.road.RowMin(v, W));
+  for (int v = 0; v < H; ++v)
+    span = std::max(span, std::max(res.road.At(0, v), res.road.At(W - 1, v)) - res.road.RowMin(v, W));
   int num_d = P.gpt_num_disparities;
-  if (P.gpt_expand_range) num_d = std::max(num_d, static_cast<int>(std::ceil(P.gpt_delta_px + span + P.gpt_headroom_px)));
+  if (P.gpt_expand_range)
+    num_d = std::max(num_d, static_cast<int>(std::ceil(P.gpt_delta_px + span + P.gpt_headroom_px)));
   num_d = std::min(num_d, 1024);
   res.num_disparities = num_d;
   SgmParams sp = P.ToSgm(0, num_d);
@@ -879,9 +890,11 @@ bool RefineAndClean(const DisparityParams& P, bool gpt, const RoadModel& road, S
   refine.max_edge_coherence = P.refine_max_coherence;
   refine.highpass = P.refine_highpass_px;
   refine.shift_ratio = P.refine_shift_ratio;
-  if (gpt && P.refine_ground_window) refine.window_rows = GroundWindowRows(road, W, H, P.camera_focal_px, P.refine_window);
-  if (gpt) refine.smooth_window = P.refine_smooth_window, refine.smooth_agree_px = P.refine_smooth_agree_px,
-           refine.smooth_max_px = run->smooth_max_px;
+  if (gpt && P.refine_ground_window)
+    refine.window_rows = GroundWindowRows(road, W, H, P.camera_focal_px, P.refine_window);
+  if (gpt)
+    refine.smooth_window = P.refine_smooth_window, refine.smooth_agree_px = P.refine_smooth_agree_px,
+    refine.smooth_max_px = run->smooth_max_px;
   const bool sharp = gpt && refine.window > 0 && refine.smooth_window > refine.window;
   RefineSubpixel(run->ref_s, run->target_s, &sgm.disparity, sgm.valid, refine, sharp ? sharp_l : nullptr);
   FilterSpeckles(&sgm.disparity, &sgm.valid, P.speckle_window_size, P.speckle_max_diff_px);
@@ -989,11 +1002,12 @@ DisparityResult ComputeDisparity(const cv::Mat& left, const cv::Mat& right, cons
 
   t0 = std::chrono::steady_clock::now();
   res.valid = run.sgm.valid;
-  res.disparity = run.sgm.disparity;  // after a warp, converted in place below (no fresh 4 MB per frame)
+  res.disparity = run.sgm.disparity;              // after a warp, converted in place below (no fresh 4 MB per frame)
   if (gpt) res.transformed.create(H, W, CV_32F);  // the road model is known (reliable): fused below
   const RowCounts rows = TrueDisparityRows(left, P, gpt, run.kappa, sharp ? &sharp_l : nullptr, &res);
   int64_t visible = 0, visible_valid = 0, num_valid = 0;
-  for (int v = 0; v < H; ++v) visible += rows.visible[v], visible_valid += rows.visible_valid[v], num_valid += rows.valid[v];
+  for (int v = 0; v < H; ++v)
+    visible += rows.visible[v], visible_valid += rows.visible_valid[v], num_valid += rows.valid[v];
   if (gpt && P.gpt_min_valid_fraction > 0) {
     if (visible == 0 || visible_valid < P.gpt_min_valid_fraction * visible) {
       DisparityParams plain = P;

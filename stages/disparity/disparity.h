@@ -18,25 +18,26 @@ enum class DisparityMethod {
 /// Parameters of the disparity computation. Defaults suit 8-bit rectified road imagery.
 struct DisparityParams {
   DisparityMethod method = DisparityMethod::kGptSgm;  ///< matcher
-  int min_disparity = 0;      ///< plain SGM (and GPT fallback): smallest disparity, px
-  int num_disparities = 128;  ///< plain SGM (and GPT fallback): number of disparities, 1..1024
+  int min_disparity = 0;                              ///< plain SGM (and GPT fallback): smallest disparity, px
+  int num_disparities = 128;                          ///< plain SGM (and GPT fallback): number of disparities, 1..1024
 
- /// Gaussian blur of both images before the census, px (0 = off): lifts the census above sensor
+  /// Gaussian blur of both images before the census, px (0 = off): lifts the census above sensor
   /// noise on weakly textured, far road (docs/stages/disparity.md).
   double presmooth_sigma_px = 1.0;
-  int census_width = 9;    ///< census window width, odd; width*height <= 65
-  int census_height = 7;   ///< census window height, odd
-  int ad_weight = 0;       ///< weight of the truncated absolute-difference term (0 = census only)
-  int ad_truncation = 20;  ///< truncation of |IL - IR|, grey levels
-  int num_paths = 4;       ///< SGM aggregation paths: 4 (horizontal + vertical; default, ~half the cost) or 8
-  int p1 = 20;             ///< SGM penalty for +-1 px disparity changes
-  int p2 = 240;            ///< SGM penalty for larger changes; p1 < p2 <= 1900
-  bool adaptive_p2 = true; ///< P2' = max(P1, P2 * g / (|dI| + g)) lets disparity jump at intensity edges
+  int census_width = 9;        ///< census window width, odd; width*height <= 65
+  int census_height = 7;       ///< census window height, odd
+  int ad_weight = 0;           ///< weight of the truncated absolute-difference term (0 = census only)
+  int ad_truncation = 20;      ///< truncation of |IL - IR|, grey levels
+  int num_paths = 4;           ///< SGM aggregation paths: 4 (horizontal + vertical; default, ~half the cost) or 8
+  int p1 = 20;                 ///< SGM penalty for +-1 px disparity changes
+  int p2 = 240;                ///< SGM penalty for larger changes; p1 < p2 <= 1900
+  bool adaptive_p2 = true;     ///< P2' = max(P1, P2 * g / (|dI| + g)) lets disparity jump at intensity edges
   int p2_gradient_scale = 16;  ///< g in the adaptive P2, grey levels
   int uniqueness_ratio = 5;    ///< percent margin the best cost needs over non-neighbouring ones
   SubpixelMode subpixel = SubpixelMode::kEquiangular;  ///< sub-pixel refinement
-  int lr_max_diff = 2;         ///< left-right consistency tolerance, px; < 0 disables
-  int speckle_window_size = 100;     ///< drop 4-connected regions (|step| <= speckle_max_diff_px) smaller than this; 0 = off
+  int lr_max_diff = 2;                                 ///< left-right consistency tolerance, px; < 0 disables
+  int speckle_window_size =
+      100;  ///< drop 4-connected regions (|step| <= speckle_max_diff_px) smaller than this; 0 = off
   double speckle_max_diff_px = 1.0;  ///< disparity step allowed inside a speckle region, px
   bool median = true;                ///< 3x3 median over valid neighbours (invalid pixels stay invalid)
   /// Fill an invalid pixel with the (lower) median of its valid 3x3 neighbours when at least this
@@ -51,7 +52,8 @@ struct DisparityParams {
   /// 1 px above the road model: matching noise peaks where the true disparity is half-way between
   /// integers (the views sample the texture at different phases), and a larger window averages it.
   int refine_smooth_window = 21;
-  double refine_smooth_agree_px = 0.2;  ///< largest difference to refine_window's value where the smooth window is taken, px
+  double refine_smooth_agree_px =
+      0.2;  ///< largest difference to refine_window's value where the smooth window is taken, px
   /// With refine_smooth_window: pixels whose refine_window window is dominated by one straight,
   /// mostly vertical edge (structure-tensor coherence above this; ~0.3 on texture) give no terms to
   /// the smooth window and take its value: a hard shadow or paint edge is matched where each
@@ -117,19 +119,20 @@ struct DisparityTimings {
 
 /// Output of ComputeDisparity.
 struct DisparityResult {
-  cv::Mat disparity;    ///< true disparity, CV_32F px, left view; 0 where invalid
-  cv::Mat transformed;  ///< transformed disparity d - road(u, v) + delta, CV_32F; 0 where invalid or no reliable road model
-  cv::Mat valid;        ///< CV_8U, 255 where disparity is valid
+  cv::Mat disparity;  ///< true disparity, CV_32F px, left view; 0 where invalid
+  cv::Mat
+      transformed;  ///< transformed disparity d - road(u, v) + delta, CV_32F; 0 where invalid or no reliable road model
+  cv::Mat valid;    ///< CV_8U, 255 where disparity is valid
   /// GPT-SGM with refine_smooth_window: the true disparity of the refine_window pass alone (before
   /// the smooth window's value is taken; same post-processing, same validity as `disparity`).
   /// Noisier on the road, but a pothole's wall stays where it is: the smooth window spreads a
   /// sloping wall's depth onto the road and makes the floor beside it shallower
   /// (docs/stages/disparity.md, "Two images"). Empty when no smooth window ran (equal to `disparity`).
   cv::Mat disparity_sharp;
-  RoadModel road;       ///< road model used (GPT) or fitted to the dense result (SGM)
+  RoadModel road;                                       ///< road model used (GPT) or fitted to the dense result (SGM)
   DisparityMethod method_used = DisparityMethod::kSgm;  ///< kSgm also when GPT fell back
-  bool fell_back = false;   ///< GPT requested but road model unreliable -> plain SGM over the wide range
-  int num_disparities = 0;  ///< disparities searched per pixel
+  bool fell_back = false;     ///< GPT requested but road model unreliable -> plain SGM over the wide range
+  int num_disparities = 0;    ///< disparities searched per pixel
   double valid_fraction = 0;  ///< share of valid pixels
   DisparityTimings timings;
 };
@@ -145,13 +148,14 @@ DisparityResult ComputeDisparity(const cv::Mat& left_gray8, const cv::Mat& right
 /// where the road's residual lies half-way between integers, i.e. wherever the road model is off).
 /// Both images are high-passed (minus a local mean, SubpixelRefineOptions::highpass: gain and
 /// vignetting differ between the cameras). For each valid pixel n with SGM's integer winner
-/// k_n = round(l_n), e_n = ref(u) - target(u - k_n) and the derivative G_n there (mean of both views' 5-tap differences) give the
-/// linearised estimate k_n - e_n / G_n (pixels whose step exceeds 1 px are left out); a pixel's
+/// k_n = round(l_n), e_n = ref(u) - target(u - k_n) and the derivative G_n there (mean of both views' 5-tap
+/// differences) give the linearised estimate k_n - e_n / G_n (pixels whose step exceeds 1 px are left out); a pixel's
 /// refined value is the average of these over its window x window neighbourhood weighted by
 /// G_n^2 (the window's least-squares shift, 1-D Lucas-Kanade, one Gauss-Newton step from exact
 /// integer samples). A pixel keeps its input value when the window's mean squared slope is below
-/// 4 (grey levels/px)^2 (no texture: inside painted lines) or the result moves it by more than 1 px. `disparity`: CV_32F, match at column u - l in `target`
-/// (the images SGM compared); invalid pixels are left alone. window 0 = no-op.
+/// 4 (grey levels/px)^2 (no texture: inside painted lines) or the result moves it by more than 1 px. `disparity`:
+/// CV_32F, match at column u - l in `target` (the images SGM compared); invalid pixels are left alone. window 0 =
+/// no-op.
 void RefineSubpixel(const cv::Mat& ref, const cv::Mat& target, cv::Mat* disparity, const cv::Mat& valid, int window);
 
 /// RefineSubpixel's options beyond the window.

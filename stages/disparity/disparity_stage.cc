@@ -18,19 +18,34 @@ namespace {
 const OptionTable<RoadFitOptions>& RoadFitTable() {
   static const auto t =
       OptionTable<RoadFitOptions>()
-          .Add("max_features", &RoadFitOptions::max_features, "strongest FAST corners kept per image").Min(10)
-          .Add("fast_threshold", &RoadFitOptions::fast_threshold, "FAST corner threshold", "grey levels").Min(1)
-          .Add("detect_scale", &RoadFitOptions::detect_scale, "detect and match on images resized by this").Above(0).Max(1)
-          .Add("max_row_diff_px", &RoadFitOptions::max_row_diff_px, "epipolar constraint |v_left - v_right|", "px").Min(0)
+          .Add("max_features", &RoadFitOptions::max_features, "strongest FAST corners kept per image")
+          .Min(10)
+          .Add("fast_threshold", &RoadFitOptions::fast_threshold, "FAST corner threshold", "grey levels")
+          .Min(1)
+          .Add("detect_scale", &RoadFitOptions::detect_scale, "detect and match on images resized by this")
+          .Above(0)
+          .Max(1)
+          .Add("max_row_diff_px", &RoadFitOptions::max_row_diff_px, "epipolar constraint |v_left - v_right|", "px")
+          .Min(0)
           .Add("min_disparity_px", &RoadFitOptions::min_disparity_px, "matches need a larger disparity", "px")
           .Add("max_disparity_px", &RoadFitOptions::max_disparity_px, "matches need at most this disparity", "px")
-          .Add("ratio", &RoadFitOptions::ratio, "Lowe ratio test on Hamming distances").Above(0).Max(1)
-          .Add("max_hamming", &RoadFitOptions::max_hamming, "descriptor distance ceiling (of 256 bits)").Min(0).Max(256)
-          .Add("ransac_iterations", &RoadFitOptions::ransac_iterations, "most planar hypotheses drawn (stops early at 99.99 % confidence)").Min(1)
-          .Add("inlier_threshold_px", &RoadFitOptions::inlier_threshold_px, "|d - model| for an inlier", "px").Above(0)
-          .Add("min_inliers", &RoadFitOptions::min_inliers, "fewer inliers: model unreliable, plain SGM fallback").Min(3)
+          .Add("ratio", &RoadFitOptions::ratio, "Lowe ratio test on Hamming distances")
+          .Above(0)
+          .Max(1)
+          .Add("max_hamming", &RoadFitOptions::max_hamming, "descriptor distance ceiling (of 256 bits)")
+          .Min(0)
+          .Max(256)
+          .Add("ransac_iterations", &RoadFitOptions::ransac_iterations,
+               "most planar hypotheses drawn (stops early at 99.99 % confidence)")
+          .Min(1)
+          .Add("inlier_threshold_px", &RoadFitOptions::inlier_threshold_px, "|d - model| for an inlier", "px")
+          .Above(0)
+          .Add("min_inliers", &RoadFitOptions::min_inliers, "fewer inliers: model unreliable, plain SGM fallback")
+          .Min(3)
           .Add("min_inlier_fraction", &RoadFitOptions::min_inlier_fraction,
-               "smaller inlier share of the matches: model unreliable").Min(0).Max(1)
+               "smaller inlier share of the matches: model unreliable")
+          .Min(0)
+          .Max(1)
           .Add("max_residual_rms_px", &RoadFitOptions::max_residual_rms_px, "larger inlier RMS: model unreliable", "px")
           .Above(0)
           .Add("quadratic", &RoadFitOptions::quadratic, "refine with a quadratic surface (cambered roads)")
@@ -50,17 +65,24 @@ const OptionTable<DisparityParams>& ParamsTable() {
           .Min(1)
           .Max(1024)
           .Add("presmooth_sigma_px", &DisparityParams::presmooth_sigma_px,
-               "Gaussian blur of both images before the census (0 = off)", "px").Min(0)
-          .Add("census_width", &DisparityParams::census_width, "census window width (odd)", "px").Min(1)
-          .Add("census_height", &DisparityParams::census_height, "census window height (odd)", "px").Min(1)
+               "Gaussian blur of both images before the census (0 = off)", "px")
+          .Min(0)
+          .Add("census_width", &DisparityParams::census_width, "census window width (odd)", "px")
+          .Min(1)
+          .Add("census_height", &DisparityParams::census_height, "census window height (odd)", "px")
+          .Min(1)
           .Add("ad_weight", &DisparityParams::ad_weight, "weight of the truncated absolute-difference cost (0 = off)")
           .Min(0)
-          .Add("ad_truncation", &DisparityParams::ad_truncation, "truncation of |IL - IR|", "grey levels").Min(1)
+          .Add("ad_truncation", &DisparityParams::ad_truncation, "truncation of |IL - IR|", "grey levels")
+          .Min(1)
           .Add("num_paths", &DisparityParams::num_paths, "SGM aggregation paths (4 or 8)")
-          .Add("p1", &DisparityParams::p1, "SGM penalty for +-1 px disparity changes").Min(0)
-          .Add("p2", &DisparityParams::p2, "SGM penalty for larger changes (p1 < p2)").Min(0)
+          .Add("p1", &DisparityParams::p1, "SGM penalty for +-1 px disparity changes")
+          .Min(0)
+          .Add("p2", &DisparityParams::p2, "SGM penalty for larger changes (p1 < p2)")
+          .Min(0)
           .Add("adaptive_p2", &DisparityParams::adaptive_p2, "lower P2 at intensity edges")
-          .Add("p2_gradient_scale", &DisparityParams::p2_gradient_scale, "g in the adaptive P2", "grey levels").Min(1)
+          .Add("p2_gradient_scale", &DisparityParams::p2_gradient_scale, "g in the adaptive P2", "grey levels")
+          .Min(1)
           .Add("uniqueness_ratio", &DisparityParams::uniqueness_ratio, "margin the best cost needs over others", "%")
           .Min(0)
           .Max(100)
@@ -79,14 +101,18 @@ const OptionTable<DisparityParams>& ParamsTable() {
           .Add("median", &DisparityParams::median, "3x3 median over valid neighbours")
           .Add("fill_min_neighbours", &DisparityParams::fill_min_neighbours,
                "fill an invalid pixel from its valid 3x3 neighbours when at least this many agree within "
-               "speckle_max_diff_px (0 = off)").Min(0).Max(8)
+               "speckle_max_diff_px (0 = off)")
+          .Min(0)
+          .Max(8)
           .Add("refine_window", &DisparityParams::refine_window,
-               "window of the intensity sub-pixel refinement after SGM (odd; 0 = off: SGM's cost-curve sub-pixel only)", "px")
+               "window of the intensity sub-pixel refinement after SGM (odd; 0 = off: SGM's cost-curve sub-pixel only)",
+               "px")
           .Min(0)
           .Max(31)
           .Add("refine_smooth_window", &DisparityParams::refine_smooth_window,
                "GPT-SGM: larger refinement window taken on the road and below where it agrees with refine_window's "
-               "value (odd; 0 = off)", "px")
+               "value (odd; 0 = off)",
+               "px")
           .Min(0)
           .Max(63)
           .Add("refine_smooth_agree_px", &DisparityParams::refine_smooth_agree_px,
@@ -100,7 +126,8 @@ const OptionTable<DisparityParams>& ParamsTable() {
           .Max(1)
           .Add("refine_highpass_px", &DisparityParams::refine_highpass_px,
                "box of the local mean subtracted from both images before the refinement (odd; the views' gain "
-               "differs; a small box keeps the ramp it makes beside paint and shadow edges near the edge)", "px")
+               "differs; a small box keeps the ramp it makes beside paint and shadow edges near the edge)",
+               "px")
           .Min(3)
           .Max(63)
           .Add("refine_shift_ratio", &DisparityParams::refine_shift_ratio,
@@ -128,7 +155,8 @@ const OptionTable<DisparityParams>& ParamsTable() {
                "with gpt_subpixel_warp: shift each pixel by its road disparity (road residual = delta everywhere) "
                "instead of each row by its minimum")
           .Add("gpt_min_valid_fraction", &DisparityParams::gpt_min_valid_fraction,
-               "fall back to plain SGM when a smaller share of the textured pixels whose road point is visible gets a valid GPT-SGM disparity")
+               "fall back to plain SGM when a smaller share of the textured pixels whose road point is visible gets a "
+               "valid GPT-SGM disparity")
           .Min(0)
           .Max(1)
           .Include("road", &DisparityParams::road, RoadFitTable());
@@ -139,8 +167,9 @@ cv::Mat LoadPair(const FrameRecord& f, cv::Mat* right) {
   cv::Mat left = LoadGray8(f.left);
   *right = LoadGray8(f.right);
   if (left.size() != right->size())
-    throw InputError(InputLocation::File(f.right.string()),
-                     fmt::format("right image is {}x{}, left is {}x{}", right->cols, right->rows, left.cols, left.rows));
+    throw InputError(
+        InputLocation::File(f.right.string()),
+        fmt::format("right image is {}x{}, left is {}x{}", right->cols, right->rows, left.cols, left.rows));
   return left;
 }
 
@@ -195,8 +224,9 @@ StageInfo DisparityStage::Info() {
   StageInfo info;
   info.name = "disparity";
   info.version = 1;
-  info.doc = "Dense road disparity per frame: GPT-SGM (road model, perspective transformation, semi-global "
-             "matching over a small residual range), plain SGM where the road model is unreliable.";
+  info.doc =
+      "Dense road disparity per frame: GPT-SGM (road model, perspective transformation, semi-global "
+      "matching over a small residual range), plain SGM where the road model is unreliable.";
   info.inputs = {"frames", "calibration"};
   info.outputs = {"disparity"};
   info.published = {{"frames", "disparity"}};
@@ -238,7 +268,8 @@ void DisparityStage::Run(StageContext& ctx, const DisparityStageOptions& o) cons
         if (o.write_preview) {
           double d_max = 0;
           cv::minMaxLoc(r.disparity, nullptr, &d_max, nullptr, nullptr, r.valid);
-          WriteImageChecked((tmp / disparity_files::kPreview).string(), ColorizeDisparity(r.disparity, r.valid, 0, d_max));
+          WriteImageChecked((tmp / disparity_files::kPreview).string(),
+                            ColorizeDisparity(r.disparity, r.valid, 0, d_max));
         }
         if (o.write_point_cloud)
           WriteDisparityPointCloud((tmp / disparity_files::kPointCloud).string(), r.disparity, r.valid, left,

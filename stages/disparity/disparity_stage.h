@@ -11,8 +11,8 @@ namespace rs {
 /// The algorithm's parameters (DisparityParams, registered field by field) plus what to write.
 struct DisparityStageOptions {
   DisparityParams params;
-  bool temporal_prior = true;      ///< seed each frame's road fit with the previous frame's model
-  bool write_transformed = true;   ///< transformed disparity (float TIFF), the damage stage's input
+  bool temporal_prior = true;     ///< seed each frame's road fit with the previous frame's model
+  bool write_transformed = true;  ///< transformed disparity (float TIFF), the damage stage's input
   /// disparity_sharp.png (KITTI 16-bit) where the smooth refinement window ran: the refine_window
   /// pass alone (DisparityResult::disparity_sharp), on which the damage stage sums volumes
   bool write_sharp = true;

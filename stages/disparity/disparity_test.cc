@@ -49,8 +49,8 @@ TEST(Disparity, Nominal) {
   EXPECT_NEAR(r.transformed.at<float>(520, 700), params.gpt_delta_px - 5.0, 0.3);
   EXPECT_NEAR(r.transformed.at<float>(300, 1200), params.gpt_delta_px, 0.3);
   EXPECT_NEAR(r.transformed.at<float>(100, 100), params.gpt_delta_px, 0.3);
-  std::printf("GPT-SGM 1280x720: D1 %.3f %%, density %.1f %%, EPE %.3f px, %d disparities, %.1f ms\n", 100 * road.d1_est,
-              100 * road.density, road.epe, r.num_disparities, r.timings.total_ms);
+  std::printf("GPT-SGM 1280x720: D1 %.3f %%, density %.1f %%, EPE %.3f px, %d disparities, %.1f ms\n",
+              100 * road.d1_est, 100 * road.density, road.epe, r.num_disparities, r.timings.total_ms);
 }
 
 TEST(Disparity, GptIntegerRowShift) {
@@ -180,14 +180,16 @@ TEST(Disparity, FilterSpecklesMatchesOpenCv) {
   for (int v = 0; v < H; ++v)
     for (int u = 0; u < W; ++u) {
       const int cell = (v / 9) * 1000 + (u / (3 + (v / 9) % 9)) + ((u + v) % 13 == 0 ? 500 : 0);
-      d.at<float>(v, u) = 20.0f + static_cast<float>((cell * 7919) % 23) * 0.6f + static_cast<float>(rng.uniform(0.0, 0.3));
+      d.at<float>(v, u) =
+          20.0f + static_cast<float>((cell * 7919) % 23) * 0.6f + static_cast<float>(rng.uniform(0.0, 0.3));
       valid.at<uint8_t>(v, u) = rng.uniform(0, 100) < 8 ? 0 : 255;
     }
   for (const double max_diff : {0.5, 1.0, 2.0}) {
     cv::Mat fixed(H, W, CV_16S);
     for (int v = 0; v < H; ++v)
       for (int u = 0; u < W; ++u)
-        fixed.at<int16_t>(v, u) = valid.at<uint8_t>(v, u) ? static_cast<int16_t>(cvRound(d.at<float>(v, u) * 16.0f)) : INT16_MIN;
+        fixed.at<int16_t>(v, u) =
+            valid.at<uint8_t>(v, u) ? static_cast<int16_t>(cvRound(d.at<float>(v, u) * 16.0f)) : INT16_MIN;
     cv::filterSpeckles(fixed, INT16_MIN, 40, cvRound(max_diff * 16.0));
     cv::Mat got_d = d.clone(), got_v = valid.clone();
     FilterSpeckles(&got_d, &got_v, 40, max_diff);
@@ -212,7 +214,8 @@ TEST(Disparity, MedianValid3x3MatchesNaive) {
   rng.fill(d, cv::RNG::UNIFORM, 0.0, 50.0);
   for (int v = 0; v < H; ++v)
     for (int u = 0; u < W; ++u) valid.at<uint8_t>(v, u) = rng.uniform(0, 10) < 2 ? 0 : 255;
-  for (int u = 20; u < 60; ++u) valid.at<uint8_t>(10, u) = 255, valid.at<uint8_t>(11, u) = 255, valid.at<uint8_t>(12, u) = 255;
+  for (int u = 20; u < 60; ++u)
+    valid.at<uint8_t>(10, u) = 255, valid.at<uint8_t>(11, u) = 255, valid.at<uint8_t>(12, u) = 255;
   cv::Mat got = d.clone();
   MedianValid3x3(&got, valid);
   int mismatches = 0;
@@ -265,8 +268,8 @@ TEST(Disparity, FillSmallHolesMatchesDefinition) {
     }
   EXPECT_EQ(mismatches, 0);
   EXPECT_EQ(filled, expected_fills);
-  EXPECT_GT(expected_fills, 20);  // the fixture exercises filling ...
-  EXPECT_LT(cv::countNonZero(got_valid), W * H);  // ... and refusals
+  EXPECT_GT(expected_fills, 20);                              // the fixture exercises filling ...
+  EXPECT_LT(cv::countNonZero(got_valid), W * H);              // ... and refusals
   EXPECT_EQ(FillSmallHoles(&got, &got_valid, 0, spread), 0);  // 0 = off
 }
 
@@ -333,12 +336,14 @@ TEST(Disparity, RefineSubpixelSmoothWindowWeakTexture) {
   for (int v = 0; v < H; ++v)
     for (int u = 0; u < W; ++u) {
       left.at<uint8_t>(v, u) = cv::saturate_cast<uint8_t>(128 + 0.04 * (Texture(u, v) - 128) + rng.gaussian(0.5));
-      target.at<uint8_t>(v, u) = cv::saturate_cast<uint8_t>(128 + 0.04 * (Texture(u + shift, v) - 128) + rng.gaussian(0.5));
+      target.at<uint8_t>(v, u) =
+          cv::saturate_cast<uint8_t>(128 + 0.04 * (Texture(u + shift, v) - 128) + rng.gaussian(0.5));
     }
   cv::GaussianBlur(left, left, cv::Size(0, 0), 1.0), cv::GaussianBlur(target, target, cv::Size(0, 0), 1.0);
   double slope2 = 0;
   for (int v = 0; v < H; ++v)
-    for (int u = 1; u + 1 < W; ++u) slope2 += std::pow((left.at<uint8_t>(v, u + 1) - left.at<uint8_t>(v, u - 1)) / 2.0, 2);
+    for (int u = 1; u + 1 < W; ++u)
+      slope2 += std::pow((left.at<uint8_t>(v, u + 1) - left.at<uint8_t>(v, u - 1)) / 2.0, 2);
   slope2 /= H * (W - 2);
   ASSERT_LT(slope2, 4.0) << "the premise: texture below the small window's gate";
   ASSERT_GT(slope2, 0.3);
@@ -373,7 +378,8 @@ TEST(Disparity, RefineSubpixelSmoothWindow) {
     for (int v = 0; v < H; ++v)
       for (int u = 0; u < W; ++u) {
         const double t = 128 - 64 * texture_gain;
-        left->at<uint8_t>(v, u) = cv::saturate_cast<uint8_t>(t + texture_gain * (Texture(u, v) - 64) * 0.5 + edge_contrast * step(u - 100.0));
+        left->at<uint8_t>(v, u) =
+            cv::saturate_cast<uint8_t>(t + texture_gain * (Texture(u, v) - 64) * 0.5 + edge_contrast * step(u - 100.0));
         target->at<uint8_t>(v, u) = cv::saturate_cast<uint8_t>(t + texture_gain * (Texture(u + shift, v) - 64) * 0.5 +
                                                                edge_contrast * step(u + edge_shift - 100.0));
       }
@@ -406,7 +412,8 @@ TEST(Disparity, RefineSubpixelSmoothWindow) {
     SubpixelRefineOptions o;
     o.smooth_window = 21, o.max_edge_coherence = 0.7;
     RefineSubpixel(left, target, &d_smooth, valid, o);
-    const double rms_small = error(d_small, 30, W - 30, &mean_small), rms_smooth = error(d_smooth, 30, W - 30, &mean_smooth);
+    const double rms_small = error(d_small, 30, W - 30, &mean_small),
+                 rms_smooth = error(d_smooth, 30, W - 30, &mean_smooth);
     EXPECT_LT(rms_smooth, 0.7 * rms_small) << "small window rms " << rms_small;
     // No bias beyond the small window's own (one linearised step from 1/2 px away).
     EXPECT_LE(std::abs(mean_smooth), std::abs(mean_small) + 0.01) << "small window mean " << mean_small;
@@ -486,7 +493,8 @@ struct PotholePair {
 };
 PotholePair RenderPotholePair(int W, int H, double road, double floor, const cv::Rect& pothole, uint64_t seed) {
   constexpr double kNoise = 2.0;  // grey levels, each view
-  PotholePair p{cv::Mat(H, W, CV_8U), cv::Mat(H, W, CV_8U), cv::Mat(H, W, CV_32F), cv::Mat(H, W, CV_8U, cv::Scalar(255))};
+  PotholePair p{cv::Mat(H, W, CV_8U), cv::Mat(H, W, CV_8U), cv::Mat(H, W, CV_32F),
+                cv::Mat(H, W, CV_8U, cv::Scalar(255))};
   cv::RNG rng(seed);
   for (int v = 0; v < H; ++v)
     for (int x = 0; x < W; ++x) {
@@ -605,8 +613,9 @@ TEST(Disparity, RefineSubpixelGroundWindowKeepsForeshortenedWalls) {
     for (int v = 20; v < H - 20; ++v)
       for (int u = pothole.x + 10; u < pothole.br().x - 10; ++u)
         if (std::abs(d.at<float>(v, u) - truth(u, v)) > 0.25 * (road - floor)) {
-          const int dist = v < pothole.y ? pothole.y - v : v >= pothole.br().y ? v - pothole.br().y + 1
-                                                                               : std::min(v - pothole.y + 1, pothole.br().y - v);
+          const int dist = v < pothole.y         ? pothole.y - v
+                           : v >= pothole.br().y ? v - pothole.br().y + 1
+                                                 : std::min(v - pothole.y + 1, pothole.br().y - v);
           spread = std::max(spread, dist);
         }
     return spread;
@@ -654,7 +663,8 @@ TEST(Disparity, BadParams) {
     params.Check();
     FAIL();
   } catch (const std::invalid_argument& e) {
-    EXPECT_STREQ(e.what(), "disparity.refine_highpass_px = 8 violates refine_highpass_px odd, 3 <= refine_highpass_px <= 63");
+    EXPECT_STREQ(e.what(),
+                 "disparity.refine_highpass_px = 8 violates refine_highpass_px odd, 3 <= refine_highpass_px <= 63");
   }
   cv::Mat a(20, 20, CV_8UC3);
   EXPECT_THROW(ComputeDisparity(a, a, DisparityParams{}), std::invalid_argument);
@@ -673,8 +683,8 @@ TEST(Disparity, KittiPngRoundTrip) {
   EXPECT_EQ(ToKittiDisparity16(d, valid).at<uint16_t>(0, 0), 3160);  // round(12.3456 * 256)
   EXPECT_NEAR(back.at<float>(1, 2), 200.0f, 1e-6);
   EXPECT_NEAR(back.at<float>(2, 3), 65535.0 / 256, 1e-6);  // clamped to 16 bits
-  EXPECT_EQ(back_valid.at<uint8_t>(0, 1), 0);  // invalid
-  EXPECT_EQ(back_valid.at<uint8_t>(1, 1), 0);  // d = 0 cannot be stored
+  EXPECT_EQ(back_valid.at<uint8_t>(0, 1), 0);              // invalid
+  EXPECT_EQ(back_valid.at<uint8_t>(1, 1), 0);              // d = 0 cannot be stored
   const cv::Mat c = ColorizeDisparity(d, valid, 0, 255);
   EXPECT_EQ(c.rows, 3);
   EXPECT_EQ(c.at<cv::Vec3b>(0, 1), cv::Vec3b(0, 0, 0));

@@ -23,19 +23,19 @@ cv::Mat WarpTarget(const cv::Mat& target, const std::vector<double>& kappa) {
   const int W = target.cols;
   cv::Mat out(target.size(), CV_8UC1);
   cv::parallel_for_(cv::Range(0, target.rows), [&](const cv::Range& rows) {
-  for (int v = rows.start; v < rows.end; ++v) {
-    const uint8_t* src = target.ptr<uint8_t>(v);
-    uint8_t* dst = out.ptr<uint8_t>(v);
-    const double fl = std::floor(kappa[v]);
-    const int k = static_cast<int>(fl);
-    // x = u - kappa = (u - k - 1) + (1 - f): weights fixed along the row, in 1/256 steps.
-    const double f = kappa[v] - fl;
-    const int wb = static_cast<int>(std::lround(f * 256.0));  // weight of column u - k - 1
-    for (int u = 0; u < W; ++u) {
-      const int x1 = std::clamp(u - k, 0, W - 1), x0 = std::clamp(u - k - 1, 0, W - 1);
-      dst[u] = static_cast<uint8_t>((src[x1] * (256 - wb) + src[x0] * wb + 128) >> 8);
+    for (int v = rows.start; v < rows.end; ++v) {
+      const uint8_t* src = target.ptr<uint8_t>(v);
+      uint8_t* dst = out.ptr<uint8_t>(v);
+      const double fl = std::floor(kappa[v]);
+      const int k = static_cast<int>(fl);
+      // x = u - kappa = (u - k - 1) + (1 - f): weights fixed along the row, in 1/256 steps.
+      const double f = kappa[v] - fl;
+      const int wb = static_cast<int>(std::lround(f * 256.0));  // weight of column u - k - 1
+      for (int u = 0; u < W; ++u) {
+        const int x1 = std::clamp(u - k, 0, W - 1), x0 = std::clamp(u - k - 1, 0, W - 1);
+        dst[u] = static_cast<uint8_t>((src[x1] * (256 - wb) + src[x0] * wb + 128) >> 8);
+      }
     }
-  }
   });
   return out;
 }
@@ -47,14 +47,15 @@ namespace {
 // double's): |x| < 2^12 leaves a resolution of 2^-12 px,
 // far below the 1/256 weight step. No trapping math: otherwise GCC keeps the float -> int
 // conversions scalar (nothing here reads the FP flags).
-__attribute__((optimize("no-trapping-math"))) void SourceColumns(double a, double b, double c, int W, int* __restrict col, int* __restrict wgt) {
+__attribute__((optimize("no-trapping-math"))) void SourceColumns(double a, double b, double c, int W,
+                                                                 int* __restrict col, int* __restrict wgt) {
   const float af = static_cast<float>(a), bf = static_cast<float>(b), cf = static_cast<float>(c);
   for (int u = 0; u < W; ++u) {
     const float uf = static_cast<float>(u);
     const float x = uf - (af + (bf + cf * uf) * uf);
     const float fl = __builtin_floorf(x), hi = static_cast<float>(W);
     col[u] = static_cast<int>(fl < -1.0f ? -1.0f : (fl > hi ? hi : fl));  // the gather's clamps give the same samples
-    wgt[u] = static_cast<int>((x - fl) * 256.0f + 0.5f);  // 0..256
+    wgt[u] = static_cast<int>((x - fl) * 256.0f + 0.5f);                  // 0..256
   }
 }
 

@@ -40,7 +40,7 @@ cv::Mat TransformedDisparity(const cv::Mat& true_disparity, const cv::Mat& valid
                              double delta_px);
 
 /// One row v of TransformedDisparity (same arithmetic), for callers that fuse it into their own pass.
-void TransformedDisparityRow(const float* true_disparity, const uint8_t* valid, int width, int v,
-                             const RoadModel& road, double delta_px, float* out);
+void TransformedDisparityRow(const float* true_disparity, const uint8_t* valid, int width, int v, const RoadModel& road,
+                             double delta_px, float* out);
 
 }  // namespace rs

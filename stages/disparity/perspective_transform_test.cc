@@ -38,7 +38,7 @@ TEST(PerspectiveTransform, Nominal) {
   EXPECT_NEAR(d.at<float>(50, 199), road.At(199, 50), 1e-4);
   EXPECT_EQ(d.at<float>(3, 4), 0.0f);
   const cv::Mat t = TransformedDisparity(d, valid, road, 8.0);
-  EXPECT_NEAR(t.at<float>(50, 199), 8.0, 1e-4);                          // on the row minimum: delta
+  EXPECT_NEAR(t.at<float>(50, 199), 8.0, 1e-4);  // on the row minimum: delta
   EXPECT_NEAR(t.at<float>(50, 0), 8.0 - (road.At(0, 50) - road.At(199, 50)), 1e-4);
 }
 

@@ -125,7 +125,8 @@ std::vector<DisparitySample> MatchSparseDisparities(const cv::Mat& L, const cv::
   auto candidates = [&](int i, auto&& fn) {
     const cv::Point2f p = kl[i].pt;
     const int row = cvRound(p.y);
-    for (auto it = right_by_row.lower_bound(row - row_tol); it != right_by_row.end() && it->first <= row + row_tol; ++it) {
+    for (auto it = right_by_row.lower_bound(row - row_tol); it != right_by_row.end() && it->first <= row + row_tol;
+         ++it) {
       const cv::Point2f q = kr[it->second].pt;
       const double d = p.x - q.x;
       if (std::abs(p.y - q.y) > row_diff || d <= d_lo || d > d_hi) continue;
@@ -137,8 +138,10 @@ std::vector<DisparitySample> MatchSparseDisparities(const cv::Mat& L, const cv::
   for (int i = 0; i < static_cast<int>(kl.size()); ++i)
     candidates(i, [&](int j, int h) {
       Match& m = best_left[i];
-      if (h < m.dist) m.second = m.dist, m.dist = h, m.left = j;
-      else if (h < m.second) m.second = h;
+      if (h < m.dist)
+        m.second = m.dist, m.dist = h, m.left = j;
+      else if (h < m.second)
+        m.second = h;
       Match& n = best_right[j];
       if (h < n.dist) n.dist = h, n.left = i;
     });
@@ -152,7 +155,9 @@ std::vector<DisparitySample> MatchSparseDisparities(const cv::Mat& L, const cv::
     const int d0 = cvRound((kl[i].pt.x - kr[m.left].pt.x) / sc);
     const int search = 1 + static_cast<int>(std::ceil(1.0 / sc));  // a scaled pixel either side, plus one
     // Refine at full size: SAD minimum near d0, then a parabola through its neighbours.
-    auto inside = [&](int d) { return v - r >= 0 && v + r < L.rows && ul - r >= 0 && ul + r < L.cols && ul - r - d >= 0 && ul + r - d < L.cols; };
+    auto inside = [&](int d) {
+      return v - r >= 0 && v + r < L.rows && ul - r >= 0 && ul + r < L.cols && ul - r - d >= 0 && ul + r - d < L.cols;
+    };
     if (!inside(d0 - search - 1) || !inside(d0 + search + 1)) continue;
     int bd = d0, bs = 1 << 30;
     for (int d = d0 - search; d <= d0 + search; ++d) {
@@ -280,7 +285,8 @@ RoadModel FitRoadModel(const std::vector<DisparitySample>& s, int W, int H, cons
     std::vector<int> qidx;
     const double qsse = inliers_of([&](double u, double v) { return mq.At(u, v); }, &qidx);
     // Keep the quadratic when it explains at least as many matches with a smaller RMS.
-    if (qidx.size() >= best_idx.size() && qsse / std::max<size_t>(1, qidx.size()) < sse / std::max<size_t>(1, best_idx.size())) {
+    if (qidx.size() >= best_idx.size() &&
+        qsse / std::max<size_t>(1, qidx.size()) < sse / std::max<size_t>(1, best_idx.size())) {
       m = mq, best_idx = qidx, sse = qsse;
     }
   }

@@ -16,12 +16,12 @@ struct RoadModel {
   /// The surface actually evaluated: d = c0 + c1 u + c2 v + c3 u^2 + c4 uv + c5 v^2. For the
   /// planar model c = (a0, -a1 sin(phi), a1 cos(phi), 0, 0, 0); set it through SetRoll/SetPlane.
   std::array<double, 6> c{};
-  bool quadratic = false;  ///< c3..c5 in use (cambered road refinement)
-  int num_matches = 0;       ///< sparse matches that entered the fit
-  int num_inliers = 0;       ///< matches within the inlier threshold of the final model
+  bool quadratic = false;      ///< c3..c5 in use (cambered road refinement)
+  int num_matches = 0;         ///< sparse matches that entered the fit
+  int num_inliers = 0;         ///< matches within the inlier threshold of the final model
   double residual_rms_px = 0;  ///< RMS residual of the inliers, px
-  bool reliable = false;     ///< enough inliers; false = callers fall back to plain SGM
-  bool from_prior = false;   ///< the prior model won the robust fit (no better hypothesis)
+  bool reliable = false;       ///< enough inliers; false = callers fall back to plain SGM
+  bool from_prior = false;     ///< the prior model won the robust fit (no better hypothesis)
 
   /// Road disparity at (u, v), px.
   double At(double u, double v) const;
@@ -40,24 +40,24 @@ struct DisparitySample {
 
 /// Options of the sparse matching and robust fit.
 struct RoadFitOptions {
-  int max_features = 1500;          ///< strongest FAST corners kept per image (ORB descriptors)
-  int fast_threshold = 12;          ///< FAST corner threshold, grey levels
-  double detect_scale = 0.5;        ///< detect and match on images resized by this (0, 1]; refined at full size
-  double max_row_diff_px = 1.0;     ///< epipolar constraint |v_left - v_right| <= this
-  double min_disparity_px = 0.5;    ///< matches need d > this (positive disparity)
-  double max_disparity_px = 256;    ///< and d <= this
-  double ratio = 0.8;               ///< Lowe ratio test on Hamming distances among epipolar candidates
-  int max_hamming = 64;             ///< descriptor distance ceiling (of 256 bits)
+  int max_features = 1500;        ///< strongest FAST corners kept per image (ORB descriptors)
+  int fast_threshold = 12;        ///< FAST corner threshold, grey levels
+  double detect_scale = 0.5;      ///< detect and match on images resized by this (0, 1]; refined at full size
+  double max_row_diff_px = 1.0;   ///< epipolar constraint |v_left - v_right| <= this
+  double min_disparity_px = 0.5;  ///< matches need d > this (positive disparity)
+  double max_disparity_px = 256;  ///< and d <= this
+  double ratio = 0.8;             ///< Lowe ratio test on Hamming distances among epipolar candidates
+  int max_hamming = 64;           ///< descriptor distance ceiling (of 256 bits)
   /// Most planar hypotheses drawn; RANSAC stops earlier (after at least 50) once the best inlier
   /// share makes an all-inlier sample 99.99 % likely.
   int ransac_iterations = 400;
-  double inlier_threshold_px = 1.5; ///< |d - model| for an inlier
-  int min_inliers = 40;             ///< fewer inliers: model marked unreliable
+  double inlier_threshold_px = 1.5;  ///< |d - model| for an inlier
+  int min_inliers = 40;              ///< fewer inliers: model marked unreliable
   /// Smaller inlier share of the matches: unreliable (the scene is not dominated by a road plane).
   double min_inlier_fraction = 0.5;
-  double max_residual_rms_px = 1.0; ///< larger inlier RMS: unreliable
-  bool quadratic = false;           ///< refine with the quadratic surface (cambered roads)
-  unsigned seed = 1;                ///< RANSAC random seed (deterministic runs)
+  double max_residual_rms_px = 1.0;  ///< larger inlier RMS: unreliable
+  bool quadratic = false;            ///< refine with the quadratic surface (cambered roads)
+  unsigned seed = 1;                 ///< RANSAC random seed (deterministic runs)
 
   /// Throws std::invalid_argument naming the rule broken.
   void Check() const;

@@ -11,7 +11,8 @@
 namespace rs {
 namespace {
 
-std::vector<DisparitySample> PlaneSamples(double a0, double a1, double phi, int n, double outlier_share, unsigned seed) {
+std::vector<DisparitySample> PlaneSamples(double a0, double a1, double phi, int n, double outlier_share,
+                                          unsigned seed) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> U(0, 1280), V(0, 720), O(-20, 20);
   std::normal_distribution<double> noise(0, 0.2);

@@ -46,8 +46,7 @@ int SgmParams::MaxCost() const { return census_width * census_height - 1 + ad_we
 void SgmParams::Check(int image_height) const {
   auto fail = [](const std::string& msg) { throw std::invalid_argument("sgm: " + msg); };
   const std::string cw = std::to_string(census_width), ch = std::to_string(census_height);
-  if (census_width < 1 || census_width % 2 == 0)
-    fail("census_width = " + cw + " violates census_width odd and >= 1");
+  if (census_width < 1 || census_width % 2 == 0) fail("census_width = " + cw + " violates census_width odd and >= 1");
   if (census_height < 1 || census_height % 2 == 0)
     fail("census_height = " + ch + " violates census_height odd and >= 1");
   if (census_width * census_height < 9 || census_width * census_height > 65)
@@ -56,7 +55,8 @@ void SgmParams::Check(int image_height) const {
   if (ad_truncation < 1) fail("ad_truncation = " + std::to_string(ad_truncation) + " violates ad_truncation >= 1");
   if (MaxCost() > 255)
     fail("max cost " + std::to_string(MaxCost()) + " violates census bits + ad_weight*ad_truncation <= 255");
-  if (num_paths != 4 && num_paths != 8) fail("num_paths = " + std::to_string(num_paths) + " violates num_paths in {4, 8}");
+  if (num_paths != 4 && num_paths != 8)
+    fail("num_paths = " + std::to_string(num_paths) + " violates num_paths in {4, 8}");
   if (p1 < 1) fail("p1 = " + std::to_string(p1) + " violates p1 >= 1");
   if (p2 <= p1) fail("p2 = " + std::to_string(p2) + " violates p2 > p1 (p1 = " + std::to_string(p1) + ")");
   if (p2 > 1900) fail("p2 = " + std::to_string(p2) + " violates p2 <= 1900 (16-bit aggregation)");
@@ -79,13 +79,13 @@ namespace {
 // each frame costs more than a frame's aggregation on small ranges. Callers bind named references
 // to its members, so worker threads inside the lambdas see the caller's instance.
 struct SgmScratch {
-  std::vector<uint64_t> cl, cr;          // census codes, left and right
-  cv::Mat padded_l, padded_r;            // the census plans' bordered images
-  Volume volume;                         // cost and sum volumes
-  std::vector<uint8_t> cost_ring;        // packed layout: cost rows in flight
-  std::vector<uint16_t> sum_ring;        // packed layout: sum rows in flight
-  std::vector<uint32_t> right, edge;     // right-view winners and their run ends
-  std::vector<uint16_t> best;            // left winners
+  std::vector<uint64_t> cl, cr;       // census codes, left and right
+  cv::Mat padded_l, padded_r;         // the census plans' bordered images
+  Volume volume;                      // cost and sum volumes
+  std::vector<uint8_t> cost_ring;     // packed layout: cost rows in flight
+  std::vector<uint16_t> sum_ring;     // packed layout: sum rows in flight
+  std::vector<uint32_t> right, edge;  // right-view winners and their run ends
+  std::vector<uint16_t> best;         // left winners
 };
 
 SgmScratch& ThreadScratch() {
@@ -215,7 +215,8 @@ SgmOutput ComputeSgm(const cv::Mat& left_gray8, const cv::Mat& right_gray8, cons
   P.Check(left_gray8.rows);
   const cv::Mat L = left_gray8.isContinuous() ? left_gray8 : left_gray8.clone();
   const cv::Mat R = right_gray8.isContinuous() ? right_gray8 : right_gray8.clone();
-  const int W = L.cols, H = L.rows, D = P.num_disparities, Dp = (D + kLanes - 1) / kLanes * kLanes, nchunks = Dp / kLanes;
+  const int W = L.cols, H = L.rows, D = P.num_disparities, Dp = (D + kLanes - 1) / kLanes * kLanes,
+            nchunks = Dp / kLanes;
   SgmOutput out;
   SgmScratch& scratch = ThreadScratch();
 

@@ -47,8 +47,8 @@ struct SgmParams {
 
 /// Output of one SGM run on the left (reference) view.
 struct SgmOutput {
-  cv::Mat disparity;  ///< CV_32F, px, d = min_disparity + row_offset[v] + k + sub-pixel; 0 where invalid
-  cv::Mat valid;      ///< CV_8U, 255 valid, 0 rejected (border, uniqueness or left-right)
+  cv::Mat disparity;     ///< CV_32F, px, d = min_disparity + row_offset[v] + k + sub-pixel; 0 where invalid
+  cv::Mat valid;         ///< CV_8U, 255 valid, 0 rejected (border, uniqueness or left-right)
   double census_ms = 0;  ///< wall time of the census set-up (padding both images)
   /// Census rows + matching cost, time summed over threads (both run inside the aggregation pass,
   /// row token by row token).
@@ -66,8 +66,7 @@ struct SgmOutput {
 SgmOutput ComputeSgm(const cv::Mat& left_gray8, const cv::Mat& right_gray8, const SgmParams& params);
 
 /// Naive scalar SGM of exactly the same definition (slow; for tests).
-SgmOutput ComputeSgmReference(const cv::Mat& left_gray8, const cv::Mat& right_gray8,
-                              const SgmParams& params);
+SgmOutput ComputeSgmReference(const cv::Mat& left_gray8, const cv::Mat& right_gray8, const SgmParams& params);
 
 /// Census transform: bit = I(q) < I(p) over the window (centre skipped), row-major window
 /// order, first compared pixel in the most significant used bit; borders replicate.

@@ -74,7 +74,7 @@ void CensusPlan::Rows(int v0, int v1, uint64_t* codes) const {
       vb w16[8], w32[8], w64[8];
       for (int q = 0; q < 4; ++q)
         w16[2 * q] = Interleave<1, false>(plane[2 * q], plane[2 * q + 1]),
-        w16[2 * q + 1] = Interleave<1, true>(plane[2 * q], plane[2 * q + 1]);
+                w16[2 * q + 1] = Interleave<1, true>(plane[2 * q], plane[2 * q + 1]);
       // w16[2q + h]: pixels 32h..32h+31, bytes 2q, 2q+1.
       for (int h = 0; h < 2; ++h)
         for (int q = 0; q < 2; ++q) {

@@ -188,8 +188,8 @@ void CostAndHorizontalPathsFor(const CostContext& c, bool down) {
           if (v == 0) {
             mc[u] = StepPackReg<kNCr, true, false>(crow + o, c.bias, nullptr, 0, 0, 0, lc + q, srow + o, prow + o, pk);
           } else if (v < c.stream_rows) {
-            mc[u] = StepPackReg<kNCr, false, true>(crow + o, c.bias, lp + q, mp[u], p1, c.pen.Eff(irow[u], iprev[u]), lc + q,
-                                                   srow + o, prow + o, pk);
+            mc[u] = StepPackReg<kNCr, false, true>(crow + o, c.bias, lp + q, mp[u], p1, c.pen.Eff(irow[u], iprev[u]),
+                                                   lc + q, srow + o, prow + o, pk);
           } else {
             mc[u] = StepPackReg<kNCr, false, false>(crow + o, c.bias, lp + q, mp[u], p1, c.pen.Eff(irow[u], iprev[u]),
                                                     lc + q, srow + o, prow + o, pk);
@@ -265,7 +265,8 @@ void VerticalPathsAndWtaFor(const VerticalContext& c) {
       uint8_t* valid = c.out->valid.ptr<uint8_t>(v);
       uint16_t* bestv = c.best + static_cast<size_t>(v) * W;
       if (c.lr)
-        rw.Start(c.right + static_cast<size_t>(v) * W, c.edge + (static_cast<size_t>(v) * c.blocks + blk) * dp, W, u0, off);
+        rw.Start(c.right + static_cast<size_t>(v) * W, c.edge + (static_cast<size_t>(v) * c.blocks + blk) * dp, W, u0,
+                 off);
       const int vn = std::max(v - 1, 0);  // next row up: prefetched (rows are 80+ KB apart, beyond the streamers)
       // The block row's path steps first, then its winners: two short loop bodies of independent
       // pixels overlap in the out-of-order core far better than one long one.
@@ -277,9 +278,9 @@ void VerticalPathsAndWtaFor(const VerticalContext& c) {
         if (kNC > 0 && c.pk.on) {
           v16* lb = rb.data() + static_cast<size_t>(i) * kNCr;
           b.min[i] = v == H - 1 ? StepPackedOutReg<kNCr, true>(vol.Sum(v, u), c.bias, nullptr, 0, 0, 0, lb, si, c.pk)
-                                : StepPackedOutReg<kNCr, false>(vol.Sum(v, u), c.bias, ra.data() + static_cast<size_t>(i) * kNCr,
-                                                                a.min[i], c.pen.p1, c.pen.Eff(c.I(v, u), c.I(v + 1, u)),
-                                                                lb, si, c.pk);
+                                : StepPackedOutReg<kNCr, false>(
+                                      vol.Sum(v, u), c.bias, ra.data() + static_cast<size_t>(i) * kNCr, a.min[i],
+                                      c.pen.p1, c.pen.Eff(c.I(v, u), c.I(v + 1, u)), lb, si, c.pk);
         } else if (c.pk.on) {
           b.min[i] = v == H - 1 ? StepPackedOut<true>(vol.Sum(v, u), c.bias, nullptr, 0, 0, 0, b.L(i), dp, si, c.pk)
                                 : StepPackedOut<false>(vol.Sum(v, u), c.bias, a.L(i), a.min[i], c.pen.p1,

@@ -68,8 +68,8 @@ struct VerticalContext : PassInputs {
   bool lr;
   const Wta& wta;
   uint16_t* best;
-  uint32_t* right;  // RightWinners rows, H x W
-  uint32_t* edge;   // RightWinners run ends, H x blocks x Dp
+  uint32_t* right;    // RightWinners rows, H x W
+  uint32_t* edge;     // RightWinners run ends, H x blocks x Dp
   int block, blocks;  // column blocks [b * block, min(W, (b + 1) * block)), block >= Dp
   SgmOutput* out;
   const PackedLayout& pk;  // on: vol.sum holds the packed S3 | C (vol.cost unused)

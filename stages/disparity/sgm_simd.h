@@ -13,7 +13,6 @@
 
 namespace rs::sgm_detail {
 
-
 #if defined(__AVX512BW__)
 constexpr int kLanes = 32;
 #else

@@ -19,7 +19,7 @@ namespace rs::sgm_detail {
 struct Volume {
   int W = 0, H = 0, D = 0, Dp = 0;
   size_t cost_capacity = 0, sum_capacity = 0;  // elements allocated
-  std::unique_ptr<uint8_t[]> cost;  // uninitialised on purpose: every element is written
+  std::unique_ptr<uint8_t[]> cost;             // uninitialised on purpose: every element is written
   struct AlignedDelete {
     void operator()(uint16_t* p) const { ::operator delete[](p, std::align_val_t{64}); }
   };
@@ -42,10 +42,10 @@ struct Penalties {
 
 // How a path step combines its L(p,.) with the sum volume.
 enum class Acc {
-  kInit,  // S = L
-  kAdd,   // S += L
-  kOut,   // out = S + L, S untouched (the last path feeds winner-takes-all directly)
-  kPack,  // out = (S + L) | C << shift (PackedLayout: the sums of three paths and the cost in 16 bits)
+  kInit,        // S = L
+  kAdd,         // S += L
+  kOut,         // out = S + L, S untouched (the last path feeds winner-takes-all directly)
+  kPack,        // out = (S + L) | C << shift (PackedLayout: the sums of three paths and the cost in 16 bits)
   kPackStream,  // kPack with a non-temporal store
 };
 

@@ -93,12 +93,10 @@ TEST(Sgm, MatchesReferenceFourPathsAcrossColumnBlocks) {
     int p1 = 10, p2 = 120, ad = 0;
   };
   // Narrow last blocks (a 320-wide block for D = 300), ranges of 1..10 vectors.
-  const Case cases[] = {{700, 37, -2, 40, 1, true},
-                        {531, 21, 3, 33, 0, false},
-                        {769, 17, 0, 112, 2, false},
-                        {700, 9, 0, 300, 1, false},
-                        {643, 23, 0, 32, 2, false, 20, 240},   // stage defaults: packed, 16 bits used
-                        {531, 19, 1, 40, 1, true, 10, 1900},   // unpacked, keyed argmin off
+  const Case cases[] = {{700, 37, -2, 40, 1, true},           {531, 21, 3, 33, 0, false},
+                        {769, 17, 0, 112, 2, false},          {700, 9, 0, 300, 1, false},
+                        {643, 23, 0, 32, 2, false, 20, 240},     // stage defaults: packed, 16 bits used
+                        {531, 19, 1, 40, 1, true, 10, 1900},     // unpacked, keyed argmin off
                         {389, 27, -1, 17, 1, false, 8, 96, 5}};  // AD term: costs up to 162, unpacked
   for (const Case& c : cases) {
     cv::Mat l, r;

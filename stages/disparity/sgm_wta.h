@@ -21,17 +21,22 @@ namespace rs::sgm_detail {
 struct Wta {
   int W = 0, D = 0, Dp = 0, uniqueness = 0;
   SubpixelMode subpixel = SubpixelMode::kNone;
-  std::vector<uint32_t> real;  // per chunk of kLanes disparities: lanes k < D
+  std::vector<uint32_t> real;     // per chunk of kLanes disparities: lanes k < D
   uint64_t uniqueness_magic = 0;  // floor(2^40 / (100 - r)) + 1: division by 100 - r as a multiply
   // Keyed argmin: when S (<= 4 * (MaxCost + P2) with 4 paths) and k fit 16 bits together, one
   // minimum over S << key_bits | k gives the smallest S and, on ties, the smallest k (no
   // search for the first lane equal to the minimum on the critical path). Padded lanes are
   // clamped to the largest S field, above every real S, and lose ties by their larger k.
-  int key_bits = 0;       // bits of k; 0 = keyed argmin off
-  uint16_t key_cap = 0;   // largest S field value
+  int key_bits = 0;         // bits of k; 0 = keyed argmin off
+  uint16_t key_cap = 0;     // largest S field value
   std::vector<v16> lane_k;  // per chunk: k of each lane
   Wta(const SgmParams& P, int width, int dp)
-      : W(width), D(P.num_disparities), Dp(dp), uniqueness(P.uniqueness_ratio), subpixel(P.subpixel), real(dp / kLanes) {
+      : W(width),
+        D(P.num_disparities),
+        Dp(dp),
+        uniqueness(P.uniqueness_ratio),
+        subpixel(P.subpixel),
+        real(dp / kLanes) {
     uniqueness_magic = (uint64_t{1} << 40) / static_cast<uint64_t>(100 - uniqueness) + 1;
     for (int c = 0; c < dp / kLanes; ++c)
       for (int i = 0; i < kLanes; ++i)

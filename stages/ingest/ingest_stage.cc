@@ -31,9 +31,8 @@ StereoCalibration LoadCalibration(const SurveyFile& survey, const StereoSource& 
 
 void CheckFrameSize(const cv::Mat& image, const CameraIntrinsics& cam, const fs::path& path) {
   if (cam.width > 0 && (image.cols != cam.width || image.rows != cam.height))
-    throw InputError(InputLocation::File(path.string()),
-                     fmt::format("image is {}x{}, calibration says {}x{}", image.cols, image.rows, cam.width,
-                                 cam.height));
+    throw InputError(InputLocation::File(path.string()), fmt::format("image is {}x{}, calibration says {}x{}",
+                                                                     image.cols, image.rows, cam.width, cam.height));
 }
 
 int64_t Seconds(double s) { return static_cast<int64_t>(std::llround(s * 1e9)); }
@@ -65,20 +64,18 @@ int64_t ClockOffset(StageContext& ctx, const IngestOptions& o, const nlohmann::j
     std::vector<int64_t> times;
     for (const auto& f : good) times.push_back(f.t_ns);
     if (const auto est = EstimateClockOffsetFromEvents(times, track.camera_events, offset_ns)) {
-      offset_report["estimate"] = {{"offset_s", est->offset_ns * 1e-9},
-                                   {"spread_s", est->spread_ns * 1e-9},
-                                   {"matched_pairs", est->matched_pairs},
-                                   {"index_shift", est->index_shift},
-                                   {"confident", est->confident},
-                                   {"method", est->method}};
+      offset_report["estimate"] = {{"offset_s", est->offset_ns * 1e-9},   {"spread_s", est->spread_ns * 1e-9},
+                                   {"matched_pairs", est->matched_pairs}, {"index_shift", est->index_shift},
+                                   {"confident", est->confident},         {"method", est->method}};
       if (est->confident) {
         offset_ns = est->offset_ns;
         offset_report["used_s"] = offset_ns * 1e-9;
         offset_report["method"] = est->method;
       } else {
-        ctx.Warn(fmt::format("clock offset estimate {:.3f} s is not confident (spread {:.3f} s): using the "
-                             "configured {:.3f} s",
-                             est->offset_ns * 1e-9, est->spread_ns * 1e-9, offset_ns * 1e-9));
+        ctx.Warn(
+            fmt::format("clock offset estimate {:.3f} s is not confident (spread {:.3f} s): using the "
+                        "configured {:.3f} s",
+                        est->offset_ns * 1e-9, est->spread_ns * 1e-9, offset_ns * 1e-9));
       }
     } else {
       offset_report["estimate"] = "not possible: the log has too few camera events";
@@ -120,8 +117,9 @@ StageInfo IngestStage::Info() {
   StageInfo info;
   info.name = "ingest";
   info.version = 1;
-  info.doc = "Lists stereo frames, checks and rectifies them, reads the flight log and gives each frame a "
-             "time-aligned GNSS/attitude prior.";
+  info.doc =
+      "Lists stereo frames, checks and rectifies them, reads the flight log and gives each frame a "
+      "time-aligned GNSS/attitude prior.";
   info.inputs = {kSurveyInputs};
   info.outputs = {"frames", "calibration", "priors"};
   info.published = {{"ingest.json", "ingest.json"}};
@@ -182,12 +180,13 @@ void IngestStage::Run(StageContext& ctx, const IngestOptions& o) const {
                            {"frames_folder", frames_path.string()},
                            {"frames_listed", frames.size()},
                            {"frames_usable", good.size()},
-                           {"calibration", {{"source", calib.source_path},
-                                            {"raw", raw},
-                                            {"fx_px", rectified.left.fx},
-                                            {"baseline_m", rectified.BaselineM()},
-                                            {"width", rectified.left.width},
-                                            {"height", rectified.left.height}}}};
+                           {"calibration",
+                            {{"source", calib.source_path},
+                             {"raw", raw},
+                             {"fx_px", rectified.left.fx},
+                             {"baseline_m", rectified.BaselineM()},
+                             {"width", rectified.left.width},
+                             {"height", rectified.left.height}}}};
 
   // Flight log: normalized track, clock offset, per-frame priors.
   std::vector<FramePrior> priors;
@@ -201,8 +200,7 @@ void IngestStage::Run(StageContext& ctx, const IngestOptions& o) const {
       return ss.str();
     }();
     for (const auto& n : track.notes) ctx.Warn("flight log: " + n);
-    if (track.fixes.empty())
-      throw InputError(InputLocation::File(log_path->string()), "flight log has no GNSS fix");
+    if (track.fixes.empty()) throw InputError(InputLocation::File(log_path->string()), "flight log has no GNSS fix");
 
     const TrackFindings findings = CheckTrack(track, Seconds(o.max_log_gap_s), o.max_speed_m_s);
     for (const auto& m : findings.messages) ctx.Warn("flight log: " + m);
@@ -233,10 +231,11 @@ void IngestStage::Run(StageContext& ctx, const IngestOptions& o) const {
     ctx.Count("frames_with_prior", by_status["ok"]);
     ctx.Time("flight_log", std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count());
     if (in_span < o.min_in_span_fraction)
-      throw InputError(InputLocation::File(log_path->string()),
-                       fmt::format("only {:.0f}% of frames fall inside the log's time span (ingest.min_in_span_fraction "
-                                   "= {}): wrong log, or a clock offset is missing (inputs.flight_log.clock_offset_s)",
-                                   100 * in_span, o.min_in_span_fraction));
+      throw InputError(
+          InputLocation::File(log_path->string()),
+          fmt::format("only {:.0f}% of frames fall inside the log's time span (ingest.min_in_span_fraction "
+                      "= {}): wrong log, or a clock offset is missing (inputs.flight_log.clock_offset_s)",
+                      100 * in_span, o.min_in_span_fraction));
   } else {
     for (const auto& f : good) priors.push_back({f.id, f.t_ns, f.t_ns});
     report["flight_log"] = nullptr;
@@ -266,7 +265,8 @@ void IngestStage::ValidateInputs(const SurveyFile& survey, const IngestOptions& 
   }
   if (const auto log_path = survey.InputPath("flight_log")) {
     try {
-      const FlightTrack track = ReadFlightLog(*log_path, survey.inputs["flight_log"].value("format", std::string("auto")));
+      const FlightTrack track =
+          ReadFlightLog(*log_path, survey.inputs["flight_log"].value("format", std::string("auto")));
       if (track.fixes.empty()) problems.Error(InputLocation::File(log_path->string()), "no GNSS fix in the log");
       const TrackFindings findings = CheckTrack(track, Seconds(o.max_log_gap_s), o.max_speed_m_s);
       for (const auto& m : findings.messages) problems.Warning(InputLocation::File(log_path->string()), m);
@@ -274,11 +274,11 @@ void IngestStage::ValidateInputs(const SurveyFile& survey, const IngestOptions& 
         const int64_t offset = Seconds(survey.inputs["flight_log"].value("clock_offset_s", 0.0));
         const int64_t first = source->frames().front().t_ns - offset, last = source->frames().back().t_ns - offset;
         if (last < track.fixes.front().t_ns || first > track.fixes.back().t_ns)
-          problems.Error(InputLocation::File(log_path->string()),
-                         fmt::format("the frames' time range does not overlap the log's ({} frames from t = {} ns; "
-                                     "log from {} to {} ns): wrong log or missing clock offset",
-                                     source->frames().size(), first, track.fixes.front().t_ns,
-                                     track.fixes.back().t_ns));
+          problems.Error(
+              InputLocation::File(log_path->string()),
+              fmt::format("the frames' time range does not overlap the log's ({} frames from t = {} ns; "
+                          "log from {} to {} ns): wrong log or missing clock offset",
+                          source->frames().size(), first, track.fixes.front().t_ns, track.fixes.back().t_ns));
       }
     } catch (const InputError& e) {
       problems.Add(e);

@@ -40,7 +40,8 @@ std::optional<ClockOffsetEstimate> EstimateClockOffsetFromEvents(const std::vect
   std::vector<ClockOffsetEstimate> candidates;
   for (int shift = -(nf - 1); shift <= ne - 1; ++shift) {
     std::vector<int64_t> d;
-    for (int i = std::max(0, -shift); i < nf && i + shift < ne; ++i) d.push_back(frame_t_ns[i] - events[i + shift].t_ns);
+    for (int i = std::max(0, -shift); i < nf && i + shift < ne; ++i)
+      d.push_back(frame_t_ns[i] - events[i + shift].t_ns);
     if (static_cast<int>(d.size()) < min_overlap) continue;
     const int64_t med = Median(d);
     std::vector<int64_t> dev(d.size());
@@ -133,12 +134,12 @@ TrackFindings CheckTrack(const FlightTrack& track, int64_t max_gap_ns, double ma
     if (dt > max_gap_ns) {
       ++out.gaps;
       if (gap_msgs++ < kMaxMessagesPerKind)
-        out.messages.push_back(fmt::format("log gap of {:.2f} s after fix {} (t = {} ns)", dt * 1e-9, i - 1,
-                                           fixes[i - 1].t_ns));
+        out.messages.push_back(
+            fmt::format("log gap of {:.2f} s after fix {} (t = {} ns)", dt * 1e-9, i - 1, fixes[i - 1].t_ns));
     }
     if (dt > 0) {
-      const double speed = HaversineM(fixes[i - 1].lat_deg, fixes[i - 1].lon_deg, fixes[i].lat_deg, fixes[i].lon_deg) /
-                           (dt * 1e-9);
+      const double speed =
+          HaversineM(fixes[i - 1].lat_deg, fixes[i - 1].lon_deg, fixes[i].lat_deg, fixes[i].lon_deg) / (dt * 1e-9);
       if (speed > max_speed_m_s) {
         ++out.jumps;
         if (jump_msgs++ < kMaxMessagesPerKind)

@@ -16,12 +16,12 @@ namespace rs {
 
 /// An automatic clock-offset estimate and how much to trust it.
 struct ClockOffsetEstimate {
-  int64_t offset_ns = 0;     ///< camera - log
-  int64_t spread_ns = 0;     ///< median absolute deviation of the per-pair offsets
-  int matched_pairs = 0;     ///< frames paired with camera events
-  int index_shift = 0;       ///< event index - frame index of the best pairing
-  bool confident = false;    ///< spread below the limit and enough pairs
-  std::string method;        ///< "camera-events"
+  int64_t offset_ns = 0;   ///< camera - log
+  int64_t spread_ns = 0;   ///< median absolute deviation of the per-pair offsets
+  int matched_pairs = 0;   ///< frames paired with camera events
+  int index_shift = 0;     ///< event index - frame index of the best pairing
+  bool confident = false;  ///< spread below the limit and enough pairs
+  std::string method;      ///< "camera-events"
 };
 
 /// Pairs frames with the log's camera trigger events in order, trying every
@@ -44,9 +44,9 @@ std::vector<FramePrior> InterpolatePriors(const std::vector<FrameRecord>& frames
 
 /// Plausibility findings about a track (gaps, jumps, missing fixes), one line each.
 struct TrackFindings {
-  int gaps = 0;          ///< consecutive fixes further apart than max_gap
-  int jumps = 0;         ///< consecutive fixes implying speed above max_speed
-  int no_fix = 0;        ///< fixes flagged as no fix (fix_type 0 or 1)
+  int gaps = 0;                       ///< consecutive fixes further apart than max_gap
+  int jumps = 0;                      ///< consecutive fixes implying speed above max_speed
+  int no_fix = 0;                     ///< fixes flagged as no fix (fix_type 0 or 1)
   std::vector<std::string> messages;  ///< first few of each, with times
 };
 TrackFindings CheckTrack(const FlightTrack& track, int64_t max_gap_ns, double max_speed_m_s);

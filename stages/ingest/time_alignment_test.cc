@@ -62,9 +62,7 @@ TEST(ClockOffset, EqualCountsNeedNoPrior) {
   EXPECT_EQ(est->matched_pairs, 60);
 }
 
-TEST(ClockOffset, TooFewEvents) {
-  EXPECT_FALSE(EstimateClockOffsetFromEvents({1, 2, 3, 4, 5, 6}, {{1}, {2}}));
-}
+TEST(ClockOffset, TooFewEvents) { EXPECT_FALSE(EstimateClockOffsetFromEvents({1, 2, 3, 4, 5, 6}, {{1}, {2}})); }
 
 TEST(ClockOffset, IrregularEventsAreNotConfident) {
   std::mt19937 rng(3);
@@ -122,9 +120,8 @@ TEST(InterpolatePriors, Nominal) {
 
 TEST(InterpolatePriors, OutsideSpanAndGapAreFlaggedNotExtrapolated) {
   const FlightTrack track = LineTrack();
-  std::vector<FrameRecord> frames = {{FrameId{0}, -1 * kMs, "", ""},
-                                     {FrameId{1}, 4000 * kMs, "", ""},
-                                     {FrameId{2}, 99'000 * kMs, "", ""}};
+  std::vector<FrameRecord> frames = {
+      {FrameId{0}, -1 * kMs, "", ""}, {FrameId{1}, 4000 * kMs, "", ""}, {FrameId{2}, 99'000 * kMs, "", ""}};
   const auto priors = InterpolatePriors(frames, track, 0, 2000 * kMs);
   EXPECT_EQ(priors[0].status, PriorStatus::kOutsideSpan);
   EXPECT_EQ(priors[1].status, PriorStatus::kInGap);

@@ -37,7 +37,8 @@ double ObservationChi2(const RectifiedStereo& cam, const Keyframe& kf, int feat,
   *stereo = kf.features.u_right[feat] >= 0;
   if (pc.z() <= 1e-6) return 1e9;
   const double iz = 1.0 / pc.z();
-  double e2 = std::pow(kp.pt.x - (cam.f_px * pc.x() * iz + cam.cx_px), 2) + std::pow(kp.pt.y - (cam.f_px * pc.y() * iz + cam.cy_px), 2);
+  double e2 = std::pow(kp.pt.x - (cam.f_px * pc.x() * iz + cam.cx_px), 2) +
+              std::pow(kp.pt.y - (cam.f_px * pc.y() * iz + cam.cy_px), 2);
   if (*stereo) e2 += std::pow(kf.features.u_right[feat] - (cam.f_px * (pc.x() - cam.baseline_m) * iz + cam.cx_px), 2);
   return e2 * pyramid.inv_sigma2[kp.octave];
 }
@@ -70,7 +71,8 @@ void AngleAxisWithLeftJacobian(const Eigen::Vector3d& w, Eigen::Matrix3d* R, Eig
   if (theta2 > 1e-16) {
     const double theta = std::sqrt(theta2);
     *R = Eigen::AngleAxisd(theta, w / theta).toRotationMatrix();
-    *Jl = Eigen::Matrix3d::Identity() + (1 - std::cos(theta)) / theta2 * W + (theta - std::sin(theta)) / (theta2 * theta) * W * W;
+    *Jl = Eigen::Matrix3d::Identity() + (1 - std::cos(theta)) / theta2 * W +
+          (theta - std::sin(theta)) / (theta2 * theta) * W * W;
   } else {
     *R = Eigen::Matrix3d::Identity() + W;
     *Jl = Eigen::Matrix3d::Identity() + 0.5 * W;
@@ -89,7 +91,7 @@ void EvaluateReprojection(const ReprojectionResidual& r, const double* pose, con
   residual[1] = (r.fy * pc.y() * iz + r.cy - r.v) * s;
   residual[2] = stereo ? (r.fx * (pc.x() - r.baseline_m) * iz + r.cx - r.u_right) * s : 0.0;
   if (!J_pose && !J_point) return;
-  Eigen::Matrix3d D;  // d(residual)/d(pc)
+  Eigen::Matrix3d D;                            // d(residual)/d(pc)
   D << r.fx * iz, 0, -r.fx * pc.x() * iz * iz,  //
       0, r.fy * iz, -r.fy * pc.y() * iz * iz,   //
       r.fx * iz, 0, -r.fx * (pc.x() - r.baseline_m) * iz * iz;
@@ -157,8 +159,9 @@ BundleAdjustSummary BundleAdjust(SlamMap* map, const std::vector<int>& free_kfs,
           SmallBundleObservation o;
           o.pose = pose_index.at(k);
           o.point = q;
-          o.r = ReprojectionResidual{kp.pt.x, kp.pt.y, kf.features.u_right[f], cam.f_px, cam.f_px, cam.cx_px, cam.cy_px,
-                                     cam.baseline_m, 1.0 / pyramid.scale[kp.octave]};
+          o.r = ReprojectionResidual{kp.pt.x,   kp.pt.y,        kf.features.u_right[f],
+                                     cam.f_px,  cam.f_px,       cam.cx_px,
+                                     cam.cy_px, cam.baseline_m, 1.0 / pyramid.scale[kp.octave]};
           o.huber = std::sqrt(o.r.u_right >= 0 ? kChi2Stereo : kChi2Mono);
           sp.observations.push_back(o);
         }
@@ -180,12 +183,11 @@ BundleAdjustSummary BundleAdjust(SlamMap* map, const std::vector<int>& free_kfs,
       for (auto& [k, f] : map->points[p].observations) {
         const Keyframe& kf = map->keyframes[k];
         const cv::KeyPoint& kp = kf.features.keypoints[f];
-        ReprojectionResidual r{kp.pt.x, kp.pt.y, kf.features.u_right[f], cam.f_px, cam.f_px, cam.cx_px, cam.cy_px,
-                               cam.baseline_m, 1.0 / pyramid.scale[kp.octave]};
+        ReprojectionResidual r{kp.pt.x,   kp.pt.y,        kf.features.u_right[f],        cam.f_px, cam.f_px, cam.cx_px,
+                               cam.cy_px, cam.baseline_m, 1.0 / pyramid.scale[kp.octave]};
         auto* cost = new ReprojectionCost(r);
         (r.u_right >= 0 ? used_stereo : used_mono) = true;
-        problem.AddResidualBlock(cost, r.u_right >= 0 ? ls : lm,
-                                 poses[k].data(), pts[p].data());
+        problem.AddResidualBlock(cost, r.u_right >= 0 ? ls : lm, poses[k].data(), pts[p].data());
         ++obs;
       }
     }
@@ -247,8 +249,8 @@ void OptimizePoseGraph(std::vector<Eigen::Isometry3d>* T_world_kf, const std::ve
     RelativePoseResidual r;
     r.q_a_b = Eigen::Quaterniond(e.T_a_b.linear()).normalized();
     r.t_a_b = e.T_a_b.translation();
-    r.weight_rotation = 100.0 * std::sqrt(e.weight);   // ~0.01 rad
-    r.weight_translation = 10.0 * std::sqrt(e.weight); // ~0.1 m
+    r.weight_rotation = 100.0 * std::sqrt(e.weight);    // ~0.01 rad
+    r.weight_translation = 10.0 * std::sqrt(e.weight);  // ~0.1 m
     auto* cost = new ceres::AutoDiffCostFunction<RelativePoseResidual, 6, 6, 6>(new RelativePoseResidual(r));
     problem.AddResidualBlock(cost, nullptr, params[e.a].data(), params[e.b].data());
   }

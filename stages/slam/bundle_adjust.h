@@ -16,7 +16,7 @@ namespace rs {
 struct ReprojectionResidual {
   double u, v, u_right;  ///< measurement, px (u_right < 0: mono, third residual is zero)
   double fx, fy, cx, cy, baseline_m;
-  double sqrt_info;      ///< 1 / sigma of the feature's pyramid level
+  double sqrt_info;  ///< 1 / sigma of the feature's pyramid level
 
   template <typename T>
   bool operator()(const T* pose, const T* point, T* residual) const;

@@ -169,7 +169,7 @@ class Solver {
 
  private:
   SmallBundleProblem& p_;
-  std::vector<int> slot_;   // pose -> free pose index, -1 fixed
+  std::vector<int> slot_;  // pose -> free pose index, -1 fixed
   int free_ = 0;
   std::vector<int> order_;  // observation indices grouped by point
   std::vector<int> first_;  // point q's observations: order_[first_[q] .. first_[q+1])

@@ -161,8 +161,9 @@ TEST(SmallBundle, MatchesCeres) {
   ceres::LossFunction* ls = new ceres::HuberLoss(std::sqrt(7.815));
   ceres::LossFunction* lm = new ceres::HuberLoss(std::sqrt(5.991));
   for (const auto& o : ref.observations)
-    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<ReprojectionResidual, 3, 6, 3>(new ReprojectionResidual(o.r)),
-                             o.r.u_right >= 0 ? ls : lm, ref.poses[o.pose].data(), ref.points[o.point].data());
+    problem.AddResidualBlock(
+        new ceres::AutoDiffCostFunction<ReprojectionResidual, 3, 6, 3>(new ReprojectionResidual(o.r)),
+        o.r.u_right >= 0 ? ls : lm, ref.poses[o.pose].data(), ref.points[o.point].data());
   for (int k = 0; k < 2; ++k) problem.SetParameterBlockConstant(ref.poses[k].data());
   ceres::Solver::Options options;
   options.linear_solver_type = ceres::DENSE_SCHUR;
@@ -178,7 +179,8 @@ TEST(SmallBundle, MatchesCeres) {
   for (int k = 0; k < 6; ++k)
     for (int d = 0; d < 6; ++d) {
       EXPECT_NEAR(mine.poses[k][d], ref.poses[k][d], d < 3 ? 1e-5 : 1e-4) << k << " " << d;
-      EXPECT_NEAR(mine.poses[k][d], truth.poses[k][d], d < 3 ? 2e-3 : 5e-2) << k << " " << d;  // 0.1 deg, 5 cm (0.5 px noise)
+      EXPECT_NEAR(mine.poses[k][d], truth.poses[k][d], d < 3 ? 2e-3 : 5e-2)
+          << k << " " << d;  // 0.1 deg, 5 cm (0.5 px noise)
     }
   for (int k = 0; k < 2; ++k) EXPECT_EQ(mine.poses[k], start.poses[k]);  // fixed means fixed
 }

@@ -20,18 +20,18 @@ namespace rs {
 
 /// One point seen with stereo by the keyframes of pair `pair`.
 struct DisparityPairSample {
-  int pair = 0;         ///< index of the keyframe pair (its own free tz)
+  int pair = 0;             ///< index of the keyframe pair (its own free tz)
   double d_i = 0, d_j = 0;  ///< measured disparities in the two keyframes, px (> 0)
-  double a = 1;         ///< (R_ji ray_i).z
+  double a = 1;             ///< (R_ji ray_i).z
 };
 
 /// Result of EstimateDisparityOffset.
 struct DisparityOffsetEstimate {
-  bool valid = false;      ///< enough samples and sigma_px <= the limit
-  double offset_px = 0;    ///< to add to every measured disparity
-  double sigma_px = 0;     ///< its standard error (robust residual scale x sqrt of the normal-matrix inverse)
-  int samples = 0;         ///< samples kept (inliers of the robust fit)
-  int pairs = 0;           ///< keyframe pairs with enough samples
+  bool valid = false;    ///< enough samples and sigma_px <= the limit
+  double offset_px = 0;  ///< to add to every measured disparity
+  double sigma_px = 0;   ///< its standard error (robust residual scale x sqrt of the normal-matrix inverse)
+  int samples = 0;       ///< samples kept (inliers of the robust fit)
+  int pairs = 0;         ///< keyframe pairs with enough samples
 };
 
 /// Robust (Huber-IRLS) Gauss-Newton fit of the offset and one tz per pair to the samples: residual

@@ -30,8 +30,8 @@ TEST(EpipolarGrid, CellsCoverTheBand) {
   for (int trial = 0; trial < 500; ++trial) {
     const double th = angle(rng), w = half(rng);
     const double a = std::cos(th), b = std::sin(th);  // unit normal
-    const double c = -(a * ux(rng) + b * uy(rng));     // through a point of the image
-    const double scale = 0.01 + trial;                 // lines are not normalised in use
+    const double c = -(a * ux(rng) + b * uy(rng));    // through a point of the image
+    const double scale = 0.01 + trial;                // lines are not normalised in use
     grid.CellsAlongLine(a * scale, b * scale, c * scale, w, &cells);
     std::set<int> unique(cells.begin(), cells.end());
     ASSERT_EQ(unique.size(), cells.size()) << "a cell listed twice";

@@ -35,8 +35,8 @@ class Reprojection : public ceres::SizedCostFunction<3, 6, 3> {
  public:
   Reprojection(const ReprojectionResidual& r, double disparity_sigma_px) : r_(r), sigma_d_(disparity_sigma_px) {}
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
-    EvaluateCentreReprojection(r_, sigma_d_, parameters[0], parameters[1], residuals, jacobians ? jacobians[0] : nullptr,
-                               jacobians ? jacobians[1] : nullptr);
+    EvaluateCentreReprojection(r_, sigma_d_, parameters[0], parameters[1], residuals,
+                               jacobians ? jacobians[0] : nullptr, jacobians ? jacobians[1] : nullptr);
     return true;
   }
 
@@ -71,15 +71,20 @@ void EvaluateCentreReprojection(const ReprojectionResidual& r, double disparity_
   const double sd = uvd ? 1.0 / disparity_sigma_px : 0.0;  // disparity whitening, level-independent
   residual[0] = (r.fx * pc.x() * iz + r.cx - r.u) * s;
   residual[1] = (r.fy * pc.y() * iz + r.cy - r.v) * s;
-  if (uvd) residual[2] = (r.fx * r.baseline_m * iz - (r.u - r.u_right)) * sd;
-  else residual[2] = stereo ? (r.fx * (pc.x() - r.baseline_m) * iz + r.cx - r.u_right) * s : 0.0;
+  if (uvd)
+    residual[2] = (r.fx * r.baseline_m * iz - (r.u - r.u_right)) * sd;
+  else
+    residual[2] = stereo ? (r.fx * (pc.x() - r.baseline_m) * iz + r.cx - r.u_right) * s : 0.0;
   if (!J_pose && !J_point) return;
   Eigen::Matrix3d D;  // d(residual)/d(pc)
   D.row(0) << r.fx * iz * s, 0, -r.fx * pc.x() * iz * iz * s;
   D.row(1) << 0, r.fy * iz * s, -r.fy * pc.y() * iz * iz * s;
-  if (uvd) D.row(2) << 0, 0, -r.fx * r.baseline_m * iz * iz * sd;
-  else if (stereo) D.row(2) << r.fx * iz * s, 0, -r.fx * (pc.x() - r.baseline_m) * iz * iz * s;
-  else D.row(2).setZero();
+  if (uvd)
+    D.row(2) << 0, 0, -r.fx * r.baseline_m * iz * iz * sd;
+  else if (stereo)
+    D.row(2) << r.fx * iz * s, 0, -r.fx * (pc.x() - r.baseline_m) * iz * iz * s;
+  else
+    D.row(2).setZero();
   const Eigen::Matrix3d DRt = D * Rt;
   if (J_pose) {
     // d(R(-w) v)/dw = [R(-w) v]_x Jl(-w), v = x - c; d pc / dc = -R^T.
@@ -100,8 +105,8 @@ BundleAdjustSummary GlobalBundleAdjustWithFrames(SlamMap* map, std::vector<Refin
   BundleAdjustSummary summary;
   const int nk = static_cast<int>(map->keyframes.size()), nf = static_cast<int>(frames->size());
   auto residual = [&](float u, float v, float u_right, int octave) {
-    return ReprojectionResidual{u, v, u_right, cam.f_px, cam.f_px, cam.cx_px, cam.cy_px, cam.baseline_m,
-                                1.0 / pyramid.scale[octave]};
+    return ReprojectionResidual{
+        u, v, u_right, cam.f_px, cam.f_px, cam.cx_px, cam.cy_px, cam.baseline_m, 1.0 / pyramid.scale[octave]};
   };
   // Frame observations resolved to live points; frames with too few stay where tracking put them.
   for (RefinedFrame& f : *frames) {
@@ -155,10 +160,12 @@ BundleAdjustSummary GlobalBundleAdjustWithFrames(SlamMap* map, std::vector<Refin
     for (const Obs& o : obs) {
       const bool stereo = o.r.u_right >= 0;
       (stereo ? used_stereo : used_mono) = true;
-      problem.AddResidualBlock(new Reprojection(o.r, sigma_d), stereo ? loss_stereo : loss_mono, pose_of(o), pts[o.point].data());
+      problem.AddResidualBlock(new Reprojection(o.r, sigma_d), stereo ? loss_stereo : loss_mono, pose_of(o),
+                               pts[o.point].data());
     }
     for (int k = 0; k < nk; ++k)
-      if (fixed[k] && problem.HasParameterBlock(kf_pose[k].data())) problem.SetParameterBlockConstant(kf_pose[k].data());
+      if (fixed[k] && problem.HasParameterBlock(kf_pose[k].data()))
+        problem.SetParameterBlockConstant(kf_pose[k].data());
     ceres::Solver::Options options;
     options.linear_solver_type = ceres::SPARSE_SCHUR;
     options.max_num_iterations = max_iterations;
@@ -183,8 +190,10 @@ BundleAdjustSummary GlobalBundleAdjustWithFrames(SlamMap* map, std::vector<Refin
     const double chi2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
     if (chi2 <= (o.r.u_right >= 0 ? kChi2Stereo : kChi2Mono)) continue;
     ++removed;
-    if (o.kf >= 0) map->EraseObservation(o.point, o.kf);
-    else (*frames)[o.frame].observations[o.index].point = -1;
+    if (o.kf >= 0)
+      map->EraseObservation(o.point, o.kf);
+    else
+      (*frames)[o.frame].observations[o.index].point = -1;
   }
   summary.outliers_removed = removed;
   if (removed > 0) {
@@ -200,8 +209,10 @@ BundleAdjustSummary GlobalBundleAdjustWithFrames(SlamMap* map, std::vector<Refin
     if ((*frames)[i].refined) (*frames)[i].T_cam_world = PoseFromParams(frame_pose[i]);
   for (int k = 0; k < nk; ++k) {
     if (map->keyframes[k].bad) continue;
-    if (fixed[k]) ++summary.fixed_keyframes;
-    else ++summary.keyframes;
+    if (fixed[k])
+      ++summary.fixed_keyframes;
+    else
+      ++summary.keyframes;
   }
   for (const MapPoint& p : map->points) summary.points += !p.bad;
   return summary;

@@ -18,10 +18,10 @@ namespace rs {
 
 /// One map-point match of a tracked frame that did not become a keyframe (a local-map inlier).
 struct FrameObservation {
-  float u = 0, v = 0;     ///< left keypoint, px
-  float u_right = -1;     ///< right x, px; < 0: mono
-  int octave = 0;         ///< pyramid level
-  int point = -1;         ///< map point id when matched (followed through SlamMap::Replace)
+  float u = 0, v = 0;  ///< left keypoint, px
+  float u_right = -1;  ///< right x, px; < 0: mono
+  int octave = 0;      ///< pyramid level
+  int point = -1;      ///< map point id when matched (followed through SlamMap::Replace)
 };
 
 /// A tracked non-key frame in the refinement: its pose (in: initial, out: refined) and its matches.

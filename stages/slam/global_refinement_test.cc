@@ -85,78 +85,79 @@ TEST(GlobalRefinement, BentStripIsStraightened) {
   // Builds the bent map, refines it with the given disparity sigma; returns the RMS camera position
   // error (m) before and after.
   auto run = [&](double sigma_d) {
-  std::mt19937 obs_rng(11);
-  SlamMap map;
-  std::vector<RefinedFrame> frames;
-  std::vector<int> frame_index;  // frames[] -> frame
-  std::vector<int> point_of(ground.size(), -1);
-  for (int i = 0; i < n_frames; ++i) {
-    const Eigen::Isometry3d T_cam_world = T_world_cam[i].inverse();
-    const bool key = i % kf_every == 0;
-    Keyframe kf;
-    RefinedFrame fr;
-    std::vector<int> seen;
-    for (size_t g = 0; g < ground.size(); ++g) {
-      const Eigen::Vector3d pc = T_cam_world * ground[g];
-      const double u = f * pc.x() / pc.z() + cx, v = f * pc.y() / pc.z() + cy;
-      if (u < 0 || v < 0 || u > 1279 || v > 719) continue;
-      if (!key && point_of[g] < 0) continue;  // a frame only matches existing map points
-      const double un = u + px_noise(obs_rng), vn = v + px_noise(obs_rng);
-      const double ur = un - (f * B / pc.z() + d_noise(obs_rng));
-      if (key) {
-        kf.features.keypoints.emplace_back(static_cast<float>(un), static_cast<float>(vn), 31.f, -1.f, 0.f, 0);
-        kf.features.u_right.push_back(static_cast<float>(ur));
-        kf.features.depth_m.push_back(static_cast<float>(f * B / (un - ur)));
-        seen.push_back(static_cast<int>(g));
-      } else {
-        fr.observations.push_back({static_cast<float>(un), static_cast<float>(vn), static_cast<float>(ur), 0, point_of[g]});
-      }
-    }
-    if (key) {
-      kf.id = static_cast<int>(map.keyframes.size());
-      kf.frame_index = i;
-      kf.T_cam_world = T_guess[i].inverse();
-      kf.points.assign(kf.features.size(), -1);
-      kf.features.descriptors = cv::Mat::zeros(static_cast<int>(kf.features.size()), 32, CV_8U);
-      map.keyframes.push_back(std::move(kf));
-      const Keyframe& k = map.keyframes.back();
-      for (size_t j = 0; j < seen.size(); ++j) {
-        const int g = seen[j];
-        if (point_of[g] < 0) {
-          // New point from this keyframe's (noisy) stereo in its bent pose, as the front end makes it.
-          const cv::Point2f kp = k.features.keypoints[j].pt;
-          const double z = k.features.depth_m[j];
-          const Eigen::Vector3d p_cam((kp.x - cx) * z / f, (kp.y - cy) * z / f, z);
-          point_of[g] = map.AddPoint(k.T_cam_world.inverse() * p_cam, k.id, static_cast<int>(j));
+    std::mt19937 obs_rng(11);
+    SlamMap map;
+    std::vector<RefinedFrame> frames;
+    std::vector<int> frame_index;  // frames[] -> frame
+    std::vector<int> point_of(ground.size(), -1);
+    for (int i = 0; i < n_frames; ++i) {
+      const Eigen::Isometry3d T_cam_world = T_world_cam[i].inverse();
+      const bool key = i % kf_every == 0;
+      Keyframe kf;
+      RefinedFrame fr;
+      std::vector<int> seen;
+      for (size_t g = 0; g < ground.size(); ++g) {
+        const Eigen::Vector3d pc = T_cam_world * ground[g];
+        const double u = f * pc.x() / pc.z() + cx, v = f * pc.y() / pc.z() + cy;
+        if (u < 0 || v < 0 || u > 1279 || v > 719) continue;
+        if (!key && point_of[g] < 0) continue;  // a frame only matches existing map points
+        const double un = u + px_noise(obs_rng), vn = v + px_noise(obs_rng);
+        const double ur = un - (f * B / pc.z() + d_noise(obs_rng));
+        if (key) {
+          kf.features.keypoints.emplace_back(static_cast<float>(un), static_cast<float>(vn), 31.f, -1.f, 0.f, 0);
+          kf.features.u_right.push_back(static_cast<float>(ur));
+          kf.features.depth_m.push_back(static_cast<float>(f * B / (un - ur)));
+          seen.push_back(static_cast<int>(g));
         } else {
-          map.AddObservation(point_of[g], k.id, static_cast<int>(j));
+          fr.observations.push_back(
+              {static_cast<float>(un), static_cast<float>(vn), static_cast<float>(ur), 0, point_of[g]});
         }
       }
-    } else {
-      fr.T_cam_world = T_guess[i].inverse();
-      frames.push_back(std::move(fr));
-      frame_index.push_back(i);
+      if (key) {
+        kf.id = static_cast<int>(map.keyframes.size());
+        kf.frame_index = i;
+        kf.T_cam_world = T_guess[i].inverse();
+        kf.points.assign(kf.features.size(), -1);
+        kf.features.descriptors = cv::Mat::zeros(static_cast<int>(kf.features.size()), 32, CV_8U);
+        map.keyframes.push_back(std::move(kf));
+        const Keyframe& k = map.keyframes.back();
+        for (size_t j = 0; j < seen.size(); ++j) {
+          const int g = seen[j];
+          if (point_of[g] < 0) {
+            // New point from this keyframe's (noisy) stereo in its bent pose, as the front end makes it.
+            const cv::Point2f kp = k.features.keypoints[j].pt;
+            const double z = k.features.depth_m[j];
+            const Eigen::Vector3d p_cam((kp.x - cx) * z / f, (kp.y - cy) * z / f, z);
+            point_of[g] = map.AddPoint(k.T_cam_world.inverse() * p_cam, k.id, static_cast<int>(j));
+          } else {
+            map.AddObservation(point_of[g], k.id, static_cast<int>(j));
+          }
+        }
+      } else {
+        fr.T_cam_world = T_guess[i].inverse();
+        frames.push_back(std::move(fr));
+        frame_index.push_back(i);
+      }
     }
-  }
-  auto rms_error = [&](bool refined) {
-    double s2 = 0;
-    int n = 0;
-    for (const Keyframe& k : map.keyframes) {
-      s2 += (k.Center() - T_world_cam[k.frame_index].translation()).squaredNorm();
-      ++n;
-    }
-    for (size_t j = 0; j < frames.size(); ++j) {
-      if (refined && !frames[j].refined) continue;
-      s2 += (frames[j].T_cam_world.inverse().translation() - T_world_cam[frame_index[j]].translation()).squaredNorm();
-      ++n;
-    }
-    return std::sqrt(s2 / n);
-  };
-  const double before = rms_error(false);
-  const BundleAdjustSummary s = GlobalBundleAdjustWithFrames(&map, &frames, cam, pyr, 20, {0}, sigma_d);
-  EXPECT_EQ(s.keyframes, static_cast<int>(map.keyframes.size()) - 1);
-  for (const RefinedFrame& fr : frames) EXPECT_TRUE(fr.refined);
-  return std::make_pair(before, rms_error(true));
+    auto rms_error = [&](bool refined) {
+      double s2 = 0;
+      int n = 0;
+      for (const Keyframe& k : map.keyframes) {
+        s2 += (k.Center() - T_world_cam[k.frame_index].translation()).squaredNorm();
+        ++n;
+      }
+      for (size_t j = 0; j < frames.size(); ++j) {
+        if (refined && !frames[j].refined) continue;
+        s2 += (frames[j].T_cam_world.inverse().translation() - T_world_cam[frame_index[j]].translation()).squaredNorm();
+        ++n;
+      }
+      return std::sqrt(s2 / n);
+    };
+    const double before = rms_error(false);
+    const BundleAdjustSummary s = GlobalBundleAdjustWithFrames(&map, &frames, cam, pyr, 20, {0}, sigma_d);
+    EXPECT_EQ(s.keyframes, static_cast<int>(map.keyframes.size()) - 1);
+    for (const RefinedFrame& fr : frames) EXPECT_TRUE(fr.refined);
+    return std::make_pair(before, rms_error(true));
   };
   const auto [before, weighted] = run(0.1);
   const auto [before_plain, plain] = run(0.0);

@@ -80,7 +80,8 @@ std::vector<int> AppearanceCandidates(const SlamMap& map, const PlaceIndex& inde
   }
   std::sort(scored.begin(), scored.end());
   std::vector<int> out;
-  for (size_t q = 0; q < scored.size() && static_cast<int>(q) < kCandidatesPerSource; ++q) out.push_back(scored[q].second);
+  for (size_t q = 0; q < scored.size() && static_cast<int>(q) < kCandidatesPerSource; ++q)
+    out.push_back(scored[q].second);
   return out;
 }
 
@@ -138,9 +139,10 @@ std::vector<LoopClosure> DetectAndCloseLoops(SlamMap* map, const RectifiedStereo
     const Keyframe& kf = map->keyframes[i];
     if (kf.bad) continue;
     const int gap = opt.loop_min_gap_keyframes;
-    std::vector<std::pair<int, bool>> cand;          // (keyframe, found by position)
+    std::vector<std::pair<int, bool>> cand;  // (keyframe, found by position)
     auto add = [&](int j, bool by_position) {
-      if (std::none_of(cand.begin(), cand.end(), [&](auto& c) { return c.first == j; })) cand.emplace_back(j, by_position);
+      if (std::none_of(cand.begin(), cand.end(), [&](auto& c) { return c.first == j; }))
+        cand.emplace_back(j, by_position);
     };
     // Track proximity first (the most precise position), then GNSS priors, then appearance.
     const double overlap = OverlapRadius(kf, cam);

@@ -210,7 +210,8 @@ DropoutRun RunWithDropout(const fs::path& dir, const SlamOptions& so, int blank_
   const PosePairs pairs = AssociateByTimestamp(run.result.frames, run.truth, 1'000'000);
   run.ate = ComputeAte(pairs, TrajectoryAlignment::kSE3);
   for (size_t i = 1; i < run.truth.poses.size(); ++i)
-    run.path_m += (run.truth.poses[i].T_world_frame.translation() - run.truth.poses[i - 1].T_world_frame.translation()).norm();
+    run.path_m +=
+        (run.truth.poses[i].T_world_frame.translation() - run.truth.poses[i - 1].T_world_frame.translation()).norm();
   return run;
 }
 

@@ -11,12 +11,12 @@
 namespace rs {
 namespace {
 
-constexpr int kRotationBins = 30;          // 12-degree bins of the orientation difference
+constexpr int kRotationBins = 30;  // 12-degree bins of the orientation difference
 constexpr int kRansacIterations = 300;
-constexpr int kMinRansacInliers = 12;      // below this the guided search has no pose worth refining
-constexpr int kGuidedMaxHamming = 50;      // ORB-SLAM2's TH_LOW for searches with a known pose
-constexpr double kGuidedRadiusPx = 8;      // x pyramid scale; the RANSAC pose is good to a few px
-constexpr int kLocalMapKeyframes = 10;     // covisible keyframes of the candidate searched
+constexpr int kMinRansacInliers = 12;   // below this the guided search has no pose worth refining
+constexpr int kGuidedMaxHamming = 50;   // ORB-SLAM2's TH_LOW for searches with a known pose
+constexpr double kGuidedRadiusPx = 8;   // x pyramid scale; the RANSAC pose is good to a few px
+constexpr int kLocalMapKeyframes = 10;  // covisible keyframes of the candidate searched
 
 Eigen::Vector3d Backproject(const RectifiedStereo& cam, const StereoFeatures& f, int i) {
   const double z = f.depth_m[i];

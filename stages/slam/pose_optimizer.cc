@@ -83,7 +83,8 @@ int OptimizePose(const RectifiedStereo& cam, std::vector<PoseObservation>* obs, 
         continue;
       }
       const double iz = 1.0 / pc.z();
-      double e2 = std::pow(o.u - (cam.f_px * pc.x() * iz + cam.cx_px), 2) + std::pow(o.v - (cam.f_px * pc.y() * iz + cam.cy_px), 2);
+      double e2 = std::pow(o.u - (cam.f_px * pc.x() * iz + cam.cx_px), 2) +
+                  std::pow(o.v - (cam.f_px * pc.y() * iz + cam.cy_px), 2);
       const bool stereo = o.u_right >= 0;
       if (stereo) e2 += std::pow(o.u_right - (cam.f_px * (pc.x() - cam.baseline_m) * iz + cam.cx_px), 2);
       o.outlier = e2 * o.inv_sigma2 > (stereo ? kChi2Stereo : kChi2Mono);

@@ -93,8 +93,7 @@ void SlamMap::UpdateCovisibility(int kf) {
     keyframes[other].covisibility[kf] = w;
   }
   if (k.covisibility.empty() && !counts.empty()) {  // keep at least the strongest link
-    auto best = std::max_element(counts.begin(), counts.end(),
-                                 [](auto& a, auto& b) { return a.second < b.second; });
+    auto best = std::max_element(counts.begin(), counts.end(), [](auto& a, auto& b) { return a.second < b.second; });
     k.covisibility[best->first] = best->second;
     keyframes[best->first].covisibility[kf] = best->second;
   }

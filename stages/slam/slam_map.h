@@ -22,36 +22,36 @@ namespace rs {
 /// frames), so that frame need not be aligned with the SLAM world.
 struct PosePrior {
   Eigen::Isometry3d T_world_cam = Eigen::Isometry3d::Identity();  ///< camera-to-prior-world
-  bool has_position = true;    ///< translation() is meaningful
-  bool has_attitude = false;   ///< linear() is meaningful
-  double sigma_position_m = 1.0;      ///< 1-sigma position uncertainty, m
-  double sigma_attitude_rad = 0.01;   ///< 1-sigma attitude uncertainty, rad
+  bool has_position = true;                                       ///< translation() is meaningful
+  bool has_attitude = false;                                      ///< linear() is meaningful
+  double sigma_position_m = 1.0;                                  ///< 1-sigma position uncertainty, m
+  double sigma_attitude_rad = 0.01;                               ///< 1-sigma attitude uncertainty, rad
 };
 
 /// A 3-D landmark.
 struct MapPoint {
   int id = -1;
   Eigen::Vector3d p_world = Eigen::Vector3d::Zero();  ///< position in the SLAM world, m
-  cv::Mat descriptor;                  ///< 1 x 32 representative ORB descriptor (least median distance)
-  std::map<int, int> observations;     ///< keyframe id -> feature index in that keyframe
-  int reference_kf = -1;               ///< keyframe that created it (loop correction moves it along)
+  cv::Mat descriptor;                                 ///< 1 x 32 representative ORB descriptor (least median distance)
+  std::map<int, int> observations;                    ///< keyframe id -> feature index in that keyframe
+  int reference_kf = -1;                              ///< keyframe that created it (loop correction moves it along)
   Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();  ///< mean viewing direction (unit)
   double min_distance_m = 0, max_distance_m = 0;      ///< scale-invariance distance range
-  int visible = 1, found = 1;          ///< times predicted in view / actually matched (culling ratio)
+  int visible = 1, found = 1;                         ///< times predicted in view / actually matched (culling ratio)
   bool bad = false;
-  int replaced_by = -1;                ///< the point it was merged into (SlamMap::Replace), -1 none
+  int replaced_by = -1;  ///< the point it was merged into (SlamMap::Replace), -1 none
 };
 
 /// A keyframe.
 struct Keyframe {
   int id = -1;
-  int frame_index = -1;                ///< index of the frame (Track call) it was made from
+  int frame_index = -1;  ///< index of the frame (Track call) it was made from
   int64_t t_ns = 0;
   Eigen::Isometry3d T_cam_world = Eigen::Isometry3d::Identity();
   StereoFeatures features;
-  std::vector<int> points;             ///< per feature: map point id or -1
-  std::map<int, int> covisibility;     ///< other keyframe id -> shared map points
-  int segment = 0;                     ///< map segment (a new one starts when tracking and relocalisation fail)
+  std::vector<int> points;          ///< per feature: map point id or -1
+  std::map<int, int> covisibility;  ///< other keyframe id -> shared map points
+  int segment = 0;                  ///< map segment (a new one starts when tracking and relocalisation fail)
   std::optional<PosePrior> prior;
   bool bad = false;
   Eigen::Vector3d Center() const { return T_cam_world.inverse().translation(); }

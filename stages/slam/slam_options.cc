@@ -35,7 +35,8 @@ void SlamOptions::Check() const {
   Require(local_ba_keyframes >= 1, "local_ba_keyframes", local_ba_keyframes, "local_ba_keyframes >= 1");
   Require(local_ba_iterations >= 1, "local_ba_iterations", local_ba_iterations, "local_ba_iterations >= 1");
   Require(local_map_keyframes >= 1, "local_map_keyframes", local_map_keyframes, "local_map_keyframes >= 1");
-  Require(triangulation_neighbours >= 0, "triangulation_neighbours", triangulation_neighbours, "triangulation_neighbours >= 0");
+  Require(triangulation_neighbours >= 0, "triangulation_neighbours", triangulation_neighbours,
+          "triangulation_neighbours >= 0");
   Require(vocabulary_branching >= 2, "vocabulary_branching", vocabulary_branching, "vocabulary_branching >= 2");
   Require(vocabulary_depth >= 1 && vocabulary_depth <= 6, "vocabulary_depth", vocabulary_depth,
           "1 <= vocabulary_depth <= 6");

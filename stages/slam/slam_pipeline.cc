@@ -29,8 +29,9 @@ std::optional<FrameResult> SlamPipeline::Push(int64_t t_ns, const cv::Mat& left,
   const RectifiedStereo& cam = slam_->camera();
   if (left.type() != CV_8UC1 || right.type() != CV_8UC1 || left.cols != cam.width || left.rows != cam.height ||
       right.size() != left.size())
-    throw std::invalid_argument(fmt::format("SlamPipeline::Push: expected two 8-bit grey {}x{} images, got {}x{} and {}x{}",
-                                            cam.width, cam.height, left.cols, left.rows, right.cols, right.rows));
+    throw std::invalid_argument(
+        fmt::format("SlamPipeline::Push: expected two 8-bit grey {}x{} images, got {}x{} and {}x{}", cam.width,
+                    cam.height, left.cols, left.rows, right.cols, right.rows));
   if (!overlap_) return slam_->Track(t_ns, left, right, prior);
   Pending next;
   next.t_ns = t_ns;
@@ -40,13 +41,15 @@ std::optional<FrameResult> SlamPipeline::Push(int64_t t_ns, const cv::Mat& left,
   // Plain threads rather than TBB tasks: the tracking thread does not join TBB's arena, so with two
   // cores TBB would run both extractions on its single worker one after the other.
   const StereoSlam* slam = slam_;
-  std::future<std::pair<OrbFeatures, double>> right_orb =
-      std::async(std::launch::async, [slam](cv::Mat image) {
+  std::future<std::pair<OrbFeatures, double>> right_orb = std::async(
+      std::launch::async,
+      [slam](cv::Mat image) {
         const double c0 = ThreadCpuSeconds();
         OrbFeatures f;
         ExtractOrb(image, slam->options(), &f.keypoints, &f.descriptors);
         return std::make_pair(std::move(f), ThreadCpuSeconds() - c0);
-      }, right);
+      },
+      right);
   next.features = std::async(
       std::launch::async,
       [slam](cv::Mat l_image, cv::Mat r_image, std::future<std::pair<OrbFeatures, double>> r_future) {
@@ -93,7 +96,8 @@ FrameResult SlamPipeline::TrackPending(double* cpu_s) {
   const double x_cpu = e.left_cpu_s + e.right_cpu_s + e.match_cpu_s;
   times_.extract_cpu_s += x_cpu;
   times_.track_cpu_s += t_cpu;
-  times_.two_core_wall_s += std::max({std::max(e.left_cpu_s, e.right_cpu_s) + e.match_cpu_s, t_cpu, 0.5 * (x_cpu + t_cpu)});
+  times_.two_core_wall_s +=
+      std::max({std::max(e.left_cpu_s, e.right_cpu_s) + e.match_cpu_s, t_cpu, 0.5 * (x_cpu + t_cpu)});
   pending_track_cpu_ = 0;
   const double c0 = ThreadCpuSeconds();
   FrameResult out = slam_->Track(p.t_ns, std::move(e.features), p.prior);

@@ -21,16 +21,22 @@ namespace {
 const OptionTable<SlamOptions>& SlamTable() {
   static const auto t =
       OptionTable<SlamOptions>()
-          .Add("features", &SlamOptions::features, "ORB features kept per image after grid spreading").Min(100)
-          .Add("pyramid_levels", &SlamOptions::pyramid_levels, "scale pyramid levels").Min(1)
-          .Add("scale_factor", &SlamOptions::scale_factor, "scale ratio between pyramid levels").Above(1)
-          .Add("fast_threshold", &SlamOptions::fast_threshold, "FAST threshold", "grey levels").Min(1)
-          .Add("grid_cell_px", &SlamOptions::grid_cell_px, "cell size of the feature-spreading grid", "px").Min(4)
+          .Add("features", &SlamOptions::features, "ORB features kept per image after grid spreading")
+          .Min(100)
+          .Add("pyramid_levels", &SlamOptions::pyramid_levels, "scale pyramid levels")
+          .Min(1)
+          .Add("scale_factor", &SlamOptions::scale_factor, "scale ratio between pyramid levels")
+          .Above(1)
+          .Add("fast_threshold", &SlamOptions::fast_threshold, "FAST threshold", "grey levels")
+          .Min(1)
+          .Add("grid_cell_px", &SlamOptions::grid_cell_px, "cell size of the feature-spreading grid", "px")
+          .Min(4)
           .Add("close_depth_baselines", &SlamOptions::close_depth_baselines,
                "a stereo point is close (reliable depth) below this many baselines")
           .Above(0)
           .Add("min_close_points", &SlamOptions::min_close_points,
-               "when fewer than 100 stereo points are close (a nadir view from altitude), the nearest this many count as close")
+               "when fewer than 100 stereo points are close (a nadir view from altitude), the nearest this many count "
+               "as close")
           .Min(0)
           .Add("stereo_max_hamming", &SlamOptions::stereo_max_hamming, "largest left-right descriptor distance")
           .Min(0)
@@ -46,11 +52,14 @@ const OptionTable<SlamOptions>& SlamTable() {
           .Add("match_max_hamming", &SlamOptions::match_max_hamming, "largest frame-to-map descriptor distance")
           .Min(0)
           .Max(256)
-          .Add("match_ratio", &SlamOptions::match_ratio, "best / second-best distance ratio").Above(0).Max(1)
+          .Add("match_ratio", &SlamOptions::match_ratio, "best / second-best distance ratio")
+          .Above(0)
+          .Max(1)
           .Add("search_radius_px", &SlamOptions::search_radius_px,
                "search radius when projecting the previous frame's points (x pyramid scale)", "px")
           .Above(0)
-          .Add("min_tracked_inliers", &SlamOptions::min_tracked_inliers, "fewer inliers = tracking lost").Min(3)
+          .Add("min_tracked_inliers", &SlamOptions::min_tracked_inliers, "fewer inliers = tracking lost")
+          .Min(3)
           .Add("keyframe_max_gap", &SlamOptions::keyframe_max_gap, "a keyframe at least every this many frames")
           .Min(1)
           .Add("keyframe_tracked_ratio", &SlamOptions::keyframe_tracked_ratio,
@@ -59,9 +68,11 @@ const OptionTable<SlamOptions>& SlamTable() {
           .Max(1)
           .Add("local_ba_keyframes", &SlamOptions::local_ba_keyframes, "keyframes in each local bundle adjustment")
           .Min(1)
-          .Add("local_ba_iterations", &SlamOptions::local_ba_iterations, "solver iterations of each local BA").Min(1)
+          .Add("local_ba_iterations", &SlamOptions::local_ba_iterations, "solver iterations of each local BA")
+          .Min(1)
           .Add("local_ba_fixed_size", &SlamOptions::local_ba_fixed_size,
-               "local BA by the fixed-size Schur Levenberg-Marquardt instead of Ceres (~5x less CPU; same minimum, other rounding)")
+               "local BA by the fixed-size Schur Levenberg-Marquardt instead of Ceres (~5x less CPU; same minimum, "
+               "other rounding)")
           .Add("local_map_keyframes", &SlamOptions::local_map_keyframes, "keyframes whose points form the local map")
           .Min(1)
           .Add("triangulation_neighbours", &SlamOptions::triangulation_neighbours,
@@ -70,7 +81,8 @@ const OptionTable<SlamOptions>& SlamTable() {
           .Add("loop_closure", &SlamOptions::loop_closure, "detect and close loops, then a global bundle adjustment")
           .Add("vocabulary_branching", &SlamOptions::vocabulary_branching, "bag-of-words vocabulary tree branching")
           .Min(2)
-          .Add("vocabulary_depth", &SlamOptions::vocabulary_depth, "bag-of-words vocabulary tree depth").Min(1)
+          .Add("vocabulary_depth", &SlamOptions::vocabulary_depth, "bag-of-words vocabulary tree depth")
+          .Min(1)
           .Add("loop_min_gap_keyframes", &SlamOptions::loop_min_gap_keyframes,
                "a loop candidate must be at least this many keyframes older")
           .Min(1)
@@ -168,8 +180,9 @@ StageInfo SlamStage::Info() {
   StageInfo info;
   info.name = "slam";
   info.version = 2;  // 2: frame_status.csv gained the position column; lost frames extrapolated / GNSS-seeded
-  info.doc = "Stereo visual SLAM (ORB features, stereo depth, motion-only and local bundle adjustment, loop "
-             "closing, global BA) over the frames in time order, GNSS positions as priors.";
+  info.doc =
+      "Stereo visual SLAM (ORB features, stereo depth, motion-only and local bundle adjustment, loop "
+      "closing, global BA) over the frames in time order, GNSS positions as priors.";
   info.inputs = {"frames", "calibration", "priors"};
   info.outputs = {"trajectory", "map"};
   info.published = {{"trajectory.tum", "trajectory.tum"}, {"keyframes.tum", "keyframes.tum"}};
@@ -199,7 +212,8 @@ void SlamStage::Run(StageContext& ctx, const SlamStageOptions& o) const {
   // Push returns the previous frame's result, Flush the last one.
   SlamPipeline pipeline(&slam, o.slam.parallel);
   auto next = [&](size_t i) -> std::optional<FrameResult> {
-    if (i < frames.size()) return pipeline.Push(frames[i].t_ns, LoadGray8(frames[i].left), LoadGray8(frames[i].right), priors[i]);
+    if (i < frames.size())
+      return pipeline.Push(frames[i].t_ns, LoadGray8(frames[i].left), LoadGray8(frames[i].right), priors[i]);
     return pipeline.Flush();
   };
   const size_t lag = o.slam.parallel ? 1 : 0;
@@ -209,7 +223,9 @@ void SlamStage::Run(StageContext& ctx, const SlamStageOptions& o) const {
     if (!tracked) continue;
     const FrameResult& r = *tracked;
     const auto& f = frames[k - lag];
-    const char* position = r.status != FrameStatus::kPriorOnly ? "visual" : r.gnss_weight >= 0.5 ? "gnss" : "motion-model";
+    const char* position = r.status != FrameStatus::kPriorOnly ? "visual"
+                           : r.gnss_weight >= 0.5              ? "gnss"
+                                                               : "motion-model";
     status << fmt::format("{},{},{},{},{},{},{},{},{}\n", f.id.value, f.t_ns, ToString(r.status), position, r.segment,
                           r.features, r.stereo_features, r.inliers, r.keyframe ? 1 : 0);
     ++by_status[ToString(r.status)];
@@ -234,9 +250,10 @@ void SlamStage::Run(StageContext& ctx, const SlamStageOptions& o) const {
   ctx.Time("track", s.track_s);
   ctx.Time("finish", s.finish_s);
   if (s.prior_only > 0)
-    ctx.Warn(fmt::format("{} frame(s) not placed visually (tracking lost), {} of them mostly by the GNSS prior: see "
-                         "frame_status.csv",
-                         s.prior_only, s.gnss_positioned));
+    ctx.Warn(
+        fmt::format("{} frame(s) not placed visually (tracking lost), {} of them mostly by the GNSS prior: see "
+                    "frame_status.csv",
+                    s.prior_only, s.gnss_positioned));
   WriteJsonAtomic(ctx.out_dir() / "slam.json", {{"report", s.BriefReport()}, {"statuses", by_status}});
 }
 

@@ -11,8 +11,8 @@ namespace rs {
 /// The SLAM's options (registered field by field) plus how priors are used.
 struct SlamStageOptions {
   SlamOptions slam;
-  bool use_gnss_priors = true;        ///< pass each frame's GNSS position (local ENU) as a prior
-  double default_prior_sigma_m = 3.0; ///< position sigma when the log gives no accuracy, m
+  bool use_gnss_priors = true;         ///< pass each frame's GNSS position (local ENU) as a prior
+  double default_prior_sigma_m = 3.0;  ///< position sigma when the log gives no accuracy, m
 
   void Check() const;
   static const OptionTable<SlamStageOptions>& Table();

@@ -51,8 +51,7 @@ void StereoFeatures::BuildGrid(int width, int height) {
   }
 }
 
-std::vector<int> StereoFeatures::FeaturesInArea(double u, double v, double radius, int min_level,
-                                                int max_level) const {
+std::vector<int> StereoFeatures::FeaturesInArea(double u, double v, double radius, int min_level, int max_level) const {
   std::vector<int> out;
   if (grid.empty()) return out;
   const int x0 = std::max(0, static_cast<int>(std::floor((u - radius) / kGridCellPx)));
@@ -78,9 +77,9 @@ void ExtractOrb(const cv::Mat& gray, const SlamOptions& options, std::vector<cv:
                 cv::Mat* descriptors) {
   // Over-detect, then spread: cv::ORB ranks by Harris score only, which clusters features on
   // strong texture and starves the rest of the image (bad geometry for pose estimation).
-  cv::Ptr<cv::ORB> orb = cv::ORB::create(options.features * 2, static_cast<float>(options.scale_factor),
-                                         options.pyramid_levels, 19, 0, 2, cv::ORB::HARRIS_SCORE, 31,
-                                         options.fast_threshold);
+  cv::Ptr<cv::ORB> orb =
+      cv::ORB::create(options.features * 2, static_cast<float>(options.scale_factor), options.pyramid_levels, 19, 0, 2,
+                      cv::ORB::HARRIS_SCORE, 31, options.fast_threshold);
   std::vector<cv::KeyPoint> all;
   cv::Mat all_desc;
   orb->detectAndCompute(gray, cv::noArray(), all, all_desc);
@@ -174,7 +173,8 @@ StereoFeatures MatchStereo(const cv::Mat& left, const cv::Mat& right, OrbFeature
   std::vector<std::vector<int>> row_index(rows);
   for (size_t j = 0; j < right_kps.size(); ++j) {
     const double y = right_kps[j].pt.y, r = 2.0 * pyramid.scale[right_kps[j].octave];
-    const int y0 = std::max(0, static_cast<int>(std::floor(y - r))), y1 = std::min(rows - 1, static_cast<int>(std::ceil(y + r)));
+    const int y0 = std::max(0, static_cast<int>(std::floor(y - r))),
+              y1 = std::min(rows - 1, static_cast<int>(std::ceil(y + r)));
     for (int yy = y0; yy <= y1; ++yy) row_index[yy].push_back(static_cast<int>(j));
   }
   const double min_disparity = 0, max_disparity = camera.f_px;  // depth >= one baseline

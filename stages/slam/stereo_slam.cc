@@ -26,10 +26,11 @@ const char* ToString(FrameStatus status) {
 }
 
 std::string SlamStatistics::BriefReport() const {
-  return fmt::format("{} frames ({} tracked, {} relocalised, {} prior-only of which {} GNSS-positioned), {} keyframes, "
-                     "{} points, {} segments, {} loops closed ({} rejected of {} candidates)",
-                     frames, tracked, relocalised, prior_only, gnss_positioned, keyframes, map_points, segments, loops_closed,
-                     loops_rejected, loop_candidates);
+  return fmt::format(
+      "{} frames ({} tracked, {} relocalised, {} prior-only of which {} GNSS-positioned), {} keyframes, "
+      "{} points, {} segments, {} loops closed ({} rejected of {} candidates)",
+      frames, tracked, relocalised, prior_only, gnss_positioned, keyframes, map_points, segments, loops_closed,
+      loops_rejected, loop_candidates);
 }
 
 using stereo_slam_internal::Clock;
@@ -50,12 +51,14 @@ void StereoSlam::Impl::EstimateDisparityOffsetOfMap() {
   stats.disparity_offset_samples = e.samples;
 }
 
-FrameResult StereoSlam::Impl::Track(int64_t t_ns, const cv::Mat& left, const cv::Mat& right, const std::optional<PosePrior>& prior) {
+FrameResult StereoSlam::Impl::Track(int64_t t_ns, const cv::Mat& left, const cv::Mat& right,
+                                    const std::optional<PosePrior>& prior) {
   if (finished) throw std::invalid_argument("StereoSlam::Track called after Finish");
   if (left.type() != CV_8UC1 || right.type() != CV_8UC1 || left.cols != cam.width || left.rows != cam.height ||
       right.size() != left.size())
-    throw std::invalid_argument(fmt::format("StereoSlam::Track: expected two 8-bit grey {}x{} images, got {}x{} and {}x{}",
-                                            cam.width, cam.height, left.cols, left.rows, right.cols, right.rows));
+    throw std::invalid_argument(
+        fmt::format("StereoSlam::Track: expected two 8-bit grey {}x{} images, got {}x{} and {}x{}", cam.width,
+                    cam.height, left.cols, left.rows, right.cols, right.rows));
   const auto t0 = Clock::now();
   StereoFeatures f = ExtractStereoFeatures(left, right, cam, opt, pyr);
   stats.track_s += Seconds(t0);
@@ -65,7 +68,8 @@ FrameResult StereoSlam::Impl::Track(int64_t t_ns, const cv::Mat& left, const cv:
 FrameResult StereoSlam::Impl::Track(int64_t t_ns, StereoFeatures features, const std::optional<PosePrior>& prior) {
   if (finished) throw std::invalid_argument("StereoSlam::Track called after Finish");
   if (!records.empty() && t_ns <= records.back().t_ns)
-    throw std::invalid_argument(fmt::format("StereoSlam::Track: time {} ns does not follow {} ns", t_ns, records.back().t_ns));
+    throw std::invalid_argument(
+        fmt::format("StereoSlam::Track: time {} ns does not follow {} ns", t_ns, records.back().t_ns));
   const auto t0 = Clock::now();
   TrackFrame cur;
   cur.index = static_cast<int>(records.size());
@@ -233,7 +237,8 @@ SlamResult StereoSlam::Impl::Finish() {
         frames.push_back(std::move(f));
         record_of.push_back(i);
       }
-      GlobalBundleAdjustWithFrames(&map, &frames, cam, pyr, opt.global_ba_iterations, {0}, opt.global_ba_disparity_sigma_px);
+      GlobalBundleAdjustWithFrames(&map, &frames, cam, pyr, opt.global_ba_iterations, {0},
+                                   opt.global_ba_disparity_sigma_px);
       for (size_t j = 0; j < frames.size(); ++j) {
         FrameRecord& r = records[record_of[j]];
         if (frames[j].refined) r.T_cam_ref = frames[j].T_cam_world * map.keyframes[r.ref_kf].T_cam_world.inverse();
@@ -264,14 +269,16 @@ SlamResult StereoSlam::Impl::Finish() {
   return out;
 }
 
-StereoSlam::StereoSlam(const StereoCalibration& rectified, const SlamOptions& options) : impl_(std::make_unique<Impl>()) {
+StereoSlam::StereoSlam(const StereoCalibration& rectified, const SlamOptions& options)
+    : impl_(std::make_unique<Impl>()) {
   options.Check();
   if (!rectified.rectified)
     throw std::invalid_argument("StereoSlam needs a rectified calibration (rectify raw pairs with StereoRectifier)");
   const double b = rectified.BaselineM();
   if (!(b > 0) || !(rectified.left.fx > 0) || rectified.left.width <= 0 || rectified.left.height <= 0)
-    throw std::invalid_argument(fmt::format("StereoSlam: calibration needs baseline > 0, fx > 0 and an image size (baseline {} m, fx {} px, {}x{})",
-                                            b, rectified.left.fx, rectified.left.width, rectified.left.height));
+    throw std::invalid_argument(fmt::format(
+        "StereoSlam: calibration needs baseline > 0, fx > 0 and an image size (baseline {} m, fx {} px, {}x{})", b,
+        rectified.left.fx, rectified.left.width, rectified.left.height));
   Impl& s = *impl_;
   s.opt = options;
   s.cam = RectifiedStereoOf(rectified);  // one focal length: fx of the rectified pair

@@ -27,38 +27,39 @@ namespace rs {
 enum class FrameStatus {
   kTracked,      ///< tracked against the previous frame and the local map
   kRelocalised,  ///< motion-model tracking failed; pose found by matching keyframes (PnP RANSAC)
-  kPriorOnly,    ///< tracking and relocalisation failed: pose predicted (motion model, seeded by the GNSS prior), new map segment
+  kPriorOnly,  ///< tracking and relocalisation failed: pose predicted (motion model, seeded by the GNSS prior), new map
+               ///< segment
 };
 /// "tracked", "relocalised", "prior-only".
 const char* ToString(FrameStatus status);
 
 /// Per-frame outcome of StereoSlam::Track.
 struct FrameResult {
-  int index = 0;                 ///< 0-based Track call
+  int index = 0;  ///< 0-based Track call
   int64_t t_ns = 0;
   FrameStatus status = FrameStatus::kTracked;
   Eigen::Isometry3d T_world_cam = Eigen::Isometry3d::Identity();  ///< at tracking time (before loop closing)
-  int features = 0;              ///< ORB features in the left image
-  int stereo_features = 0;       ///< of which with a stereo depth
-  int inliers = 0;               ///< map points matched after local-map tracking
-  bool keyframe = false;         ///< a keyframe was made from this frame
-  int segment = 0;               ///< map segment the frame belongs to
+  int features = 0;                                               ///< ORB features in the left image
+  int stereo_features = 0;                                        ///< of which with a stereo depth
+  int inliers = 0;                                                ///< map points matched after local-map tracking
+  bool keyframe = false;                                          ///< a keyframe was made from this frame
+  int segment = 0;                                                ///< map segment the frame belongs to
   /// prior-only frames: weight of the flight log's position in the pose (0: motion model alone, 1: GNSS alone)
   double gnss_weight = 0;
 };
 
 /// A closed loop.
 struct LoopClosure {
-  int keyframe = -1;        ///< the newer keyframe
-  int loop_keyframe = -1;   ///< the older keyframe it re-observes
-  int inliers = 0;          ///< inliers of the verification that accepted it (guided map search or two-view)
-  bool by_prior = false;    ///< candidate came from position (SLAM track or GNSS prior proximity), else appearance
+  int keyframe = -1;       ///< the newer keyframe
+  int loop_keyframe = -1;  ///< the older keyframe it re-observes
+  int inliers = 0;         ///< inliers of the verification that accepted it (guided map search or two-view)
+  bool by_prior = false;   ///< candidate came from position (SLAM track or GNSS prior proximity), else appearance
 };
 
 /// Counters and timings of a run.
 struct SlamStatistics {
   int frames = 0, tracked = 0, relocalised = 0, prior_only = 0;
-  int gnss_positioned = 0;     ///< prior-only frames placed mostly (weight >= 0.5) by the flight log
+  int gnss_positioned = 0;  ///< prior-only frames placed mostly (weight >= 0.5) by the flight log
   int keyframes = 0, map_points = 0, segments = 1;
   int loop_candidates = 0, loops_rejected = 0, loops_closed = 0;
   int vocabulary_words = 0;
@@ -78,11 +79,11 @@ struct SlamStatistics {
 
 /// Everything a run produced.
 struct SlamResult {
-  Trajectory frames;          ///< camera-to-world per frame (after loop closing and global BA)
-  Trajectory keyframes;       ///< camera-to-world per keyframe
+  Trajectory frames;                ///< camera-to-world per frame (after loop closing and global BA)
+  Trajectory keyframes;             ///< camera-to-world per keyframe
   std::vector<FrameStatus> status;  ///< per frame
   std::vector<int> frame_segment;   ///< per frame
-  SlamMap map;                ///< keyframes, points, observations (enough for a COLMAP export)
+  SlamMap map;                      ///< keyframes, points, observations (enough for a COLMAP export)
   std::vector<LoopClosure> loops;
   SlamStatistics stats;
 };
@@ -107,9 +108,9 @@ class StereoSlam {
   /// (SlamPipeline). Same result as the image overload. Throws std::invalid_argument when times do not increase.
   FrameResult Track(int64_t t_ns, StereoFeatures features, const std::optional<PosePrior>& prior);
 
-  const RectifiedStereo& camera() const;   ///< the rectified camera the features must be computed for
-  const SlamOptions& options() const;   ///< the options given to the constructor
-  const ScalePyramid& pyramid() const;  ///< scale pyramid of the options
+  const RectifiedStereo& camera() const;  ///< the rectified camera the features must be computed for
+  const SlamOptions& options() const;     ///< the options given to the constructor
+  const ScalePyramid& pyramid() const;    ///< scale pyramid of the options
 
   /// Loop closing, global BA; returns trajectories, map and statistics. Call once.
   SlamResult Finish();

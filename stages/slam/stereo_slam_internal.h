@@ -33,12 +33,12 @@ struct TrackFrame {
   int index = -1;
   int64_t t_ns = 0;
   StereoFeatures f;
-  std::vector<int> mp;                 // map point per feature, -1 none
+  std::vector<int> mp;                   // map point per feature, -1 none
   std::vector<Eigen::Vector3d> p_world;  // 3-D point per matched feature (map point or temporary stereo point)
-  std::vector<char> has;               // p_world valid
+  std::vector<char> has;                 // p_world valid
   Eigen::Isometry3d T_cam_world = Eigen::Isometry3d::Identity();
   std::optional<PosePrior> prior;
-  double close_depth_m = 0;            // stereo points nearer than this are "close" (CloseDepthLimit)
+  double close_depth_m = 0;  // stereo points nearer than this are "close" (CloseDepthLimit)
   void Reset(size_t n) {
     mp.assign(n, -1);
     p_world.assign(n, Eigen::Vector3d::Zero());
@@ -52,7 +52,7 @@ struct FrameRecord {
   Eigen::Isometry3d T_cam_ref = Eigen::Isometry3d::Identity();
   FrameStatus status = FrameStatus::kTracked;
   int segment = 0;
-  std::optional<Eigen::Vector3d> p_prior;  // the frame's GNSS position (prior world), if any
+  std::optional<Eigen::Vector3d> p_prior;      // the frame's GNSS position (prior world), if any
   std::vector<FrameObservation> observations;  // a tracked non-key frame's map-point matches (final global BA)
 };
 
@@ -75,7 +75,7 @@ struct StereoSlam::Impl {
   int ref_kf = -1;
   int last_kf_frame = -1;
   int segment = 0;
-  std::vector<int> point_mark;  // last frame index a point was put in the local map
+  std::vector<int> point_mark;                     // last frame index a point was put in the local map
   std::vector<std::pair<int, int>> recent_points;  // (point, keyframe that created it)
   SlamStatistics stats;
   bool finished = false;

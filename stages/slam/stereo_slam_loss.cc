@@ -77,7 +77,8 @@ double StereoSlam::Impl::PlaceLostFrame(TrackFrame* cur) const {
       const double var_prediction = std::pow(0.5 * kLostAccelerationM_S2 * dt * dt, 2);
       const double var_gnss = 2 * sigma * sigma;  // two fixes differenced
       w = var_prediction / (var_prediction + var_gnss);
-      const Eigen::Vector3d p_gnss = c_anchor + align->linear() * (cur->prior->T_world_cam.translation() - *anchor->p_prior);
+      const Eigen::Vector3d p_gnss =
+          c_anchor + align->linear() * (cur->prior->T_world_cam.translation() - *anchor->p_prior);
       p = (1 - w) * p + w * p_gnss;
     }
   }

@@ -26,14 +26,17 @@ bool StereoSlam::Impl::NeedKeyframe(const TrackFrame& cur, int inliers) const {
   int tracked_close = 0, untracked_close = 0;
   for (size_t i = 0; i < cur.f.size(); ++i) {
     if (cur.f.depth_m[i] <= 0 || cur.f.depth_m[i] > cur.close_depth_m) continue;
-    if (cur.mp[i] >= 0) ++tracked_close; else ++untracked_close;
+    if (cur.mp[i] >= 0)
+      ++tracked_close;
+    else
+      ++untracked_close;
   }
   const bool need_close = tracked_close < 100 && untracked_close > 70;
   const bool gap = cur.index - last_kf_frame >= opt.keyframe_max_gap;
   // Also when the inliers near the loss threshold, whatever the reference keyframe holds: with few
   // multi-keyframe points (KITTI's vegetation) the ratio test alone let tracking die one frame later.
-  const bool weak = inliers < opt.keyframe_tracked_ratio * ref_matches || need_close ||
-                    inliers < 3 * opt.min_tracked_inliers;
+  const bool weak =
+      inliers < opt.keyframe_tracked_ratio * ref_matches || need_close || inliers < 3 * opt.min_tracked_inliers;
   return (gap || weak) && inliers > 15;
 }
 
@@ -59,7 +62,8 @@ int StereoSlam::Impl::CreateKeyframe(TrackFrame* cur, bool new_segment) {
   // New points from stereo: every close one, and at least the 100 nearest.
   std::vector<std::pair<float, int>> by_depth;
   for (size_t i = 0; i < cur->f.size(); ++i)
-    if (cur->f.depth_m[i] > 0 && map.keyframes[id].points[i] < 0) by_depth.emplace_back(cur->f.depth_m[i], static_cast<int>(i));
+    if (cur->f.depth_m[i] > 0 && map.keyframes[id].points[i] < 0)
+      by_depth.emplace_back(cur->f.depth_m[i], static_cast<int>(i));
   std::sort(by_depth.begin(), by_depth.end());
   const Eigen::Isometry3d T_world_cam = cur->T_cam_world.inverse();
   int created = 0;
@@ -181,7 +185,10 @@ int StereoSlam::Impl::CreateNewMapPoints(int kf) {
         const Keyframe& kk = side == 0 ? k1 : k2;
         const int f = side == 0 ? i : best_j;
         const Eigen::Vector3d pc = kk.T_cam_world * x;
-        if (pc.z() <= 0) { ok = false; break; }
+        if (pc.z() <= 0) {
+          ok = false;
+          break;
+        }
         const cv::KeyPoint& kp = kk.features.keypoints[f];
         double e2 = std::pow(cam.f_px * pc.x() / pc.z() + cam.cx_px - kp.pt.x, 2) +
                     std::pow(cam.f_px * pc.y() / pc.z() + cam.cy_px - kp.pt.y, 2);
@@ -257,8 +264,10 @@ void StereoSlam::Impl::FuseInto(int target, const std::vector<int>& pts) {
     if (best_i < 0 || best > 50) continue;
     const int existing = kf.points[best_i];
     if (existing >= 0 && !map.points[existing].bad) {
-      if (map.points[existing].observations.size() >= mp.observations.size()) map.Replace(p, existing);
-      else map.Replace(existing, p);
+      if (map.points[existing].observations.size() >= mp.observations.size())
+        map.Replace(p, existing);
+      else
+        map.Replace(existing, p);
     } else {
       map.AddObservation(p, target, best_i);
     }

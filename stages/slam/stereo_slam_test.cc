@@ -63,7 +63,8 @@ TEST(StereoFeatures, DisparityOffset) {
     SlamOptions opt;
     opt.features = 400;
     opt.disparity_offset_px = offset;
-    const StereoFeatures f = ExtractStereoFeatures(left, right, cam, opt, ScalePyramid(opt.pyramid_levels, opt.scale_factor));
+    const StereoFeatures f =
+        ExtractStereoFeatures(left, right, cam, opt, ScalePyramid(opt.pyramid_levels, opt.scale_factor));
     std::vector<double> disp;
     for (size_t i = 0; i < f.size(); ++i) {
       if (f.depth_m[i] <= 0) continue;
@@ -140,7 +141,8 @@ TEST(StereoSlam, KittiClipAccurate) {
   // The path length is right to ~0.3 % (1.4 % long without the correction).
   const auto& p = r.result.frames.poses;
   double len = 0;
-  for (size_t i = 1; i < p.size(); ++i) len += (p[i].T_world_frame.translation() - p[i - 1].T_world_frame.translation()).norm();
+  for (size_t i = 1; i < p.size(); ++i)
+    len += (p[i].T_world_frame.translation() - p[i - 1].T_world_frame.translation()).norm();
   EXPECT_NEAR(len / r.path_length_m, 1.0, 0.004);
   EXPECT_LT(r.reproj_median_px, 0.5);
   EXPECT_LT(r.reproj_right_median_px, 0.3);
@@ -216,7 +218,6 @@ TEST(StereoSlam, Deterministic) {
           << (o == &b ? "pipelined twice" : "pipelined vs sequential") << ", frame " << i;
   }
 }
-
 
 }  // namespace
 }  // namespace rs

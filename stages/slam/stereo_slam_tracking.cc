@@ -37,8 +37,8 @@ double StereoSlam::Impl::CloseDepthLimit(const StereoFeatures& f) const {
 }
 
 // Best feature of `cur` for a projected point; -1 if none within the limits.
-int StereoSlam::Impl::SearchOne(const TrackFrame& cur, const uint8_t* desc, double u, double v, double ur_pred, double radius,
-                                int min_level, int max_level, bool ratio_test, int max_hamming) const {
+int StereoSlam::Impl::SearchOne(const TrackFrame& cur, const uint8_t* desc, double u, double v, double ur_pred,
+                                double radius, int min_level, int max_level, bool ratio_test, int max_hamming) const {
   const std::vector<int> cand = cur.f.FeaturesInArea(u, v, radius, min_level, max_level);
   int best = 256, second = 256, best_i = -1, best_level = -1, second_level = -1;
   for (int i : cand) {
@@ -137,8 +137,8 @@ int StereoSlam::Impl::MatchFromLast(TrackFrame* cur, double radius_factor) {
     const double radius = radius_factor * opt.search_radius_px * pyr.scale[level];
     const uint8_t* desc = last.mp[i] >= 0 ? map.points[last.mp[i]].descriptor.ptr<uint8_t>(0)
                                           : last.f.descriptors.ptr<uint8_t>(static_cast<int>(i));
-    const int j = SearchOne(*cur, desc, u, v, ur, radius, std::max(0, level - 1), level + 1, false,
-                            opt.match_max_hamming);
+    const int j =
+        SearchOne(*cur, desc, u, v, ur, radius, std::max(0, level - 1), level + 1, false, opt.match_max_hamming);
     if (j < 0) continue;
     cur->mp[j] = last.mp[i] >= 0 ? last.mp[i] : -2;  // -2: temporary point (not in the map)
     cur->p_world[j] = pw;
@@ -197,8 +197,7 @@ bool StereoSlam::Impl::RelocaliseAgainst(TrackFrame* cur, int kf_id) {
   cv::Mat rvec, tvec;
   std::vector<int> inliers;
   cv::theRNG().state = opt.ransac_seed;  // solvePnPRansac draws from OpenCV's RNG: fix it
-  if (!cv::solvePnPRansac(obj, img, K, cv::noArray(), rvec, tvec, false, 300, 3.0f, 0.99, inliers,
-                          cv::SOLVEPNP_EPNP) ||
+  if (!cv::solvePnPRansac(obj, img, K, cv::noArray(), rvec, tvec, false, 300, 3.0f, 0.99, inliers, cv::SOLVEPNP_EPNP) ||
       inliers.size() < 15)
     return false;
   cv::Mat R;

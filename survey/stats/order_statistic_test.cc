@@ -31,11 +31,11 @@ TEST(OrderStatistic, QuantileRanks) {
   EXPECT_EQ(QuantileRankDown(0.98, 101), 98u);
   EXPECT_EQ(QuantileRankDown(0.98, 100), 97u);  // 97.02
   EXPECT_EQ(QuantileRankNearest(0.98, 100), 97u);
-  EXPECT_EQ(QuantileRankDown(0.5, 4), 1u);      // 1.5 down
-  EXPECT_EQ(QuantileRankNearest(0.5, 4), 2u);   // 1.5 up
-  EXPECT_EQ(QuantileRankDown(0.999, 1000), 998u);     // 998.001
+  EXPECT_EQ(QuantileRankDown(0.5, 4), 1u);         // 1.5 down
+  EXPECT_EQ(QuantileRankNearest(0.5, 4), 2u);      // 1.5 up
+  EXPECT_EQ(QuantileRankDown(0.999, 1000), 998u);  // 998.001
   EXPECT_EQ(QuantileRankNearest(0.999, 1000), 998u);
-  EXPECT_EQ(QuantileRankDown(0.9995, 1000), 998u);    // 998.5005: the conventions differ
+  EXPECT_EQ(QuantileRankDown(0.9995, 1000), 998u);  // 998.5005: the conventions differ
   EXPECT_EQ(QuantileRankNearest(0.9995, 1000), 999u);
   for (size_t n : {1u, 2u, 7u}) {
     EXPECT_EQ(QuantileRankDown(0.0, n), 0u);

@@ -19,8 +19,8 @@ inline std::filesystem::path DataRoot() {
 }  // namespace rs::test
 
 /// Skips the current test with a clear message when `path` does not exist.
-#define RS_REQUIRE_DATA(path)                                                                              \
-  do {                                                                                                     \
-    if (!std::filesystem::exists(path))                                                                    \
+#define RS_REQUIRE_DATA(path)                                                                                        \
+  do {                                                                                                               \
+    if (!std::filesystem::exists(path))                                                                              \
       GTEST_SKIP() << "test data absent: " << (path).string() << " (set ROADSURVEY_DATA to the shared data folder)"; \
   } while (0)

@@ -182,7 +182,8 @@ void ApplyFmtu(DataflashFile* f) {
       for (size_t r = 0; r < m->size(); ++r) mults[static_cast<char>(m->Int(r, *id))] = m->Value(r, *mult);
     }
   }
-  const auto ftype = fmtu->ColumnIndex("FmtType"), uids = fmtu->ColumnIndex("UnitIds"), mids = fmtu->ColumnIndex("MultIds");
+  const auto ftype = fmtu->ColumnIndex("FmtType"), uids = fmtu->ColumnIndex("UnitIds"),
+             mids = fmtu->ColumnIndex("MultIds");
   if (!ftype || !uids || !mids) return;
   for (size_t r = 0; r < fmtu->size(); ++r) {
     const int type = static_cast<int>(fmtu->Int(r, *ftype));
@@ -201,19 +202,36 @@ void ApplyFmtu(DataflashFile* f) {
 
 int FormatCharSize(char c) {
   switch (c) {
-    case 'b': case 'B': case 'M': return 1;
-    case 'h': case 'H': case 'c': case 'C': return 2;
-    case 'i': case 'I': case 'f': case 'e': case 'E': case 'L': case 'n': return 4;
-    case 'd': case 'q': case 'Q': return 8;
+    case 'b':
+    case 'B':
+    case 'M': return 1;
+    case 'h':
+    case 'H':
+    case 'c':
+    case 'C': return 2;
+    case 'i':
+    case 'I':
+    case 'f':
+    case 'e':
+    case 'E':
+    case 'L':
+    case 'n': return 4;
+    case 'd':
+    case 'q':
+    case 'Q': return 8;
     case 'N': return 16;
-    case 'Z': case 'a': return 64;
+    case 'Z':
+    case 'a': return 64;
     default: return 0;
   }
 }
 
 double FormatCharScale(char c) {
   switch (c) {
-    case 'c': case 'C': case 'e': case 'E': return 0.01;
+    case 'c':
+    case 'C':
+    case 'e':
+    case 'E': return 0.01;
     case 'L': return 1e-7;
     default: return 1.0;
   }
@@ -231,11 +249,17 @@ int64_t MessageType::Int(size_t row, size_t column) const {
   const uint8_t* p = payloads.data() + row * payload_size() + c.offset;
   switch (c.type) {
     case 'b': return Load<int8_t>(p);
-    case 'B': case 'M': return Load<uint8_t>(p);
-    case 'h': case 'c': return Load<int16_t>(p);
-    case 'H': case 'C': return Load<uint16_t>(p);
-    case 'i': case 'e': case 'L': return Load<int32_t>(p);
-    case 'I': case 'E': return Load<uint32_t>(p);
+    case 'B':
+    case 'M': return Load<uint8_t>(p);
+    case 'h':
+    case 'c': return Load<int16_t>(p);
+    case 'H':
+    case 'C': return Load<uint16_t>(p);
+    case 'i':
+    case 'e':
+    case 'L': return Load<int32_t>(p);
+    case 'I':
+    case 'E': return Load<uint32_t>(p);
     case 'q': return Load<int64_t>(p);
     case 'Q': return static_cast<int64_t>(Load<uint64_t>(p));
     default: return 0;
@@ -249,7 +273,10 @@ double MessageType::Value(size_t row, size_t column) const {
     case 'f': return Load<float>(p);
     case 'd': return Load<double>(p);
     case 'Q': return static_cast<double>(Load<uint64_t>(p));
-    case 'n': case 'N': case 'Z': case 'a': return std::nan("");
+    case 'n':
+    case 'N':
+    case 'Z':
+    case 'a': return std::nan("");
     default: return static_cast<double>(Int(row, column)) * FormatCharScale(c.type);
   }
 }
@@ -274,7 +301,8 @@ DataflashFile ReadDataflashFile(std::istream& in, const std::string& path) {
   Parser p(data, &f);
   p.Run();
   if (p.fmt_count() == 0) {
-    throw InputError(InputLocation::Byte(path, 0), fmt::format("not a DataFlash log: no FMT message in {} bytes", data.size()));
+    throw InputError(InputLocation::Byte(path, 0),
+                     fmt::format("not a DataFlash log: no FMT message in {} bytes", data.size()));
   }
   ApplyFmtu(&f);
   return f;

@@ -25,9 +25,9 @@ double FormatCharScale(char c);
 /// One column of a message type.
 struct Column {
   std::string name;
-  char type = 0;          ///< ArduPilot format character
-  uint32_t offset = 0;    ///< byte offset inside the payload (after the 3-byte header)
-  std::string unit;       ///< from FMTU/UNIT, "" if the log has none
+  char type = 0;               ///< ArduPilot format character
+  uint32_t offset = 0;         ///< byte offset inside the payload (after the 3-byte header)
+  std::string unit;            ///< from FMTU/UNIT, "" if the log has none
   double fmtu_multiplier = 0;  ///< from FMTU/MULT (documentation only; 0 if none)
 };
 
@@ -63,12 +63,12 @@ struct Skip {
 
 /// The decoded content of a DataFlash log.
 struct DataflashFile {
-  std::vector<MessageType> types;          ///< in order of first definition
-  std::map<std::string, size_t> by_name;   ///< name -> index in types (latest definition)
-  std::vector<Skip> skips;                 ///< first kMaxRecordedSkips runs of skipped bytes
-  int64_t skipped_bytes = 0;               ///< all skipped bytes (incl. a truncated tail)
-  int64_t skip_runs = 0;                   ///< number of skipped runs
-  int rejected_formats = 0;                ///< FMT records that could not be used (unknown chars, bad length)
+  std::vector<MessageType> types;         ///< in order of first definition
+  std::map<std::string, size_t> by_name;  ///< name -> index in types (latest definition)
+  std::vector<Skip> skips;                ///< first kMaxRecordedSkips runs of skipped bytes
+  int64_t skipped_bytes = 0;              ///< all skipped bytes (incl. a truncated tail)
+  int64_t skip_runs = 0;                  ///< number of skipped runs
+  int rejected_formats = 0;               ///< FMT records that could not be used (unknown chars, bad length)
 
   static constexpr size_t kMaxRecordedSkips = 100;
 

@@ -53,7 +53,9 @@ TEST(DataflashFile, Nominal) {
   b.Message(200, AllPayload(-7));
   b.Message(201, Payload().Put<uint64_t>(1).Put<int8_t>('d').Text("deg", 64).str());
   b.Message(202, Payload().Put<uint64_t>(1).Put<int8_t>('G').Put<double>(1e-7).str());
-  b.Message(203, Payload().Put<uint64_t>(2).Put<uint8_t>(200).Text("---------------d", 16).Text("---------------G", 16).str());
+  b.Message(
+      203,
+      Payload().Put<uint64_t>(2).Put<uint8_t>(200).Text("---------------d", 16).Text("---------------G", 16).str());
   b.Message(200, AllPayload(8));
   const DataflashFile f = Parse(b.str());
   EXPECT_EQ(f.skipped_bytes, 0);

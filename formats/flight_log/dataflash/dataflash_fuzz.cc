@@ -13,7 +13,6 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   try {
     const rs::FlightTrack t = rs::ReadDataflashTrack(in, "fuzz.bin");
     (void)t;
-  } catch (const rs::InputError&) {
-  }
+  } catch (const rs::InputError&) {}
   return 0;
 }

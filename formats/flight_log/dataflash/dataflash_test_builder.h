@@ -17,13 +17,8 @@ class DataflashBuilder {
   DataflashBuilder() { Fmt(128, 89, "FMT", "BBnNZ", "Type,Length,Name,Format,Columns"); }
   DataflashBuilder& Fmt(uint8_t type, uint8_t length, const std::string& name, const std::string& format,
                         const std::string& columns) {
-    return Message(128, Payload()
-                            .Put<uint8_t>(type)
-                            .Put<uint8_t>(length)
-                            .Text(name, 4)
-                            .Text(format, 16)
-                            .Text(columns, 64)
-                            .str());
+    return Message(
+        128, Payload().Put<uint8_t>(type).Put<uint8_t>(length).Text(name, 4).Text(format, 16).Text(columns, 64).str());
   }
   DataflashBuilder& Message(uint8_t type, const std::string& payload) {
     out_ += "\xA3\x95";

@@ -82,7 +82,8 @@ std::optional<dataflash::BootClockFit> FitClock(const std::vector<std::pair<int6
     double n = 0, sx = 0, sy = 0, sxx = 0, sxy = 0;
     for (size_t i = 0; i < pairs.size(); ++i) {
       if (!use[i]) continue;
-      const double x = static_cast<double>(pairs[i].first - fit.boot0), y = static_cast<double>(pairs[i].second - fit.utc0);
+      const double x = static_cast<double>(pairs[i].first - fit.boot0),
+                   y = static_cast<double>(pairs[i].second - fit.utc0);
       n += 1;
       sx += x;
       sy += y;
@@ -108,7 +109,8 @@ std::optional<dataflash::BootClockFit> FitClock(const std::vector<std::pair<int6
 AttitudeSample FromEulerDeg(int64_t t_ns, double roll_deg, double pitch_deg, double yaw_deg) {
   // ZYX (yaw, pitch, roll) Euler angles of body FRD in NED: q = Rz(yaw) Ry(pitch) Rx(roll).
   const double r = roll_deg * kDegToRad / 2, p = pitch_deg * kDegToRad / 2, y = yaw_deg * kDegToRad / 2;
-  const double cr = std::cos(r), sr = std::sin(r), cp = std::cos(p), sp = std::sin(p), cy = std::cos(y), sy = std::sin(y);
+  const double cr = std::cos(r), sr = std::sin(r), cp = std::cos(p), sp = std::sin(p), cy = std::cos(y),
+               sy = std::sin(y);
   AttitudeSample a;
   a.t_ns = t_ns;
   a.qw = cr * cp * cy + sr * sp * sy;
@@ -152,10 +154,10 @@ namespace {
 /// Notes on the boot->UTC fit, and on a boot clock whose rate is visibly off.
 void AddClockNotes(const std::optional<dataflash::BootClockFit>& clock, FlightTrack* track) {
   if (!clock) return;
-  track->notes.push_back(fmt::format(
-      "UTC from GPS week/ms (GPS-UTC leap seconds applied): boot clock fitted over {} 3D fixes, "
-      "rate {:.6f}, max residual {:.3f} s",
-      clock->pairs, clock->rate, clock->max_residual_s));
+  track->notes.push_back(
+      fmt::format("UTC from GPS week/ms (GPS-UTC leap seconds applied): boot clock fitted over {} 3D fixes, "
+                  "rate {:.6f}, max residual {:.3f} s",
+                  clock->pairs, clock->rate, clock->max_residual_s));
   if (std::fabs(clock->rate - 1) > 1e-3) {
     track->notes.push_back(fmt::format("boot clock runs {:.2f} % {} than GPS time", std::fabs(clock->rate - 1) * 100,
                                        clock->rate > 1 ? "slower" : "faster"));
@@ -221,7 +223,8 @@ void AddFixes(const dataflash::DataflashFile& log, const std::optional<dataflash
       track->fixes.push_back(f);
     }
     if (dropped > 0) track->notes.push_back(fmt::format("dropped {} of {} GPS records without a fix", dropped, total));
-    if (repeats > 0) track->notes.push_back(fmt::format("dropped {} GPS records repeating the previous fix's GPS time", repeats));
+    if (repeats > 0)
+      track->notes.push_back(fmt::format("dropped {} GPS records repeating the previous fix's GPS time", repeats));
     if (inst) track->notes.push_back("GPS: instance 0 (primary) used");
   }
   if (log.Find("GPS2")) track->notes.push_back("GPS2 (second receiver) present, not used");
@@ -245,7 +248,8 @@ void AddAttitude(const dataflash::DataflashFile& log, const std::optional<datafl
     }
     track->attitude.push_back(FromEulerDeg(*t, att->Value(r, *roll), att->Value(r, *pitch), att->Value(r, *yaw)));
   }
-  if (dropped > 0) track->notes.push_back(fmt::format("dropped {} {} records with an invalid time", dropped, att->name));
+  if (dropped > 0)
+    track->notes.push_back(fmt::format("dropped {} {} records with an invalid time", dropped, att->name));
   track->notes.push_back(fmt::format("attitude from {}", att->name));
 }
 
@@ -292,7 +296,8 @@ void AddCameraEvents(const dataflash::DataflashFile& log, const std::optional<da
     track->camera_events.push_back(e);
   }
   track->notes.push_back(fmt::format("camera events from {}", cam->name));
-  if (dropped > 0) track->notes.push_back(fmt::format("dropped {} {} records without a usable time", dropped, cam->name));
+  if (dropped > 0)
+    track->notes.push_back(fmt::format("dropped {} {} records without a usable time", dropped, cam->name));
 }
 
 /// Notes on what the file reader skipped or could not use, so a damaged log says so.
@@ -307,8 +312,8 @@ void AddFileNotes(const dataflash::DataflashFile& log, FlightTrack* track) {
                                        log.skip_runs > 5 ? "; ..." : ""));
   }
   if (log.rejected_formats > 0) {
-    track->notes.push_back(fmt::format("{} FMT definitions unusable (unknown format characters or bad length)",
-                                       log.rejected_formats));
+    track->notes.push_back(
+        fmt::format("{} FMT definitions unusable (unknown format characters or bad length)", log.rejected_formats));
   }
 }
 

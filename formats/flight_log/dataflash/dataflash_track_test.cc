@@ -21,9 +21,7 @@ namespace {
 using dataflash::testing::DataflashBuilder;
 using dataflash::testing::Payload;
 
-std::filesystem::path DataDir() {
-  return rs::test::DataRoot() / "ardupilot_dataflash";
-}
+std::filesystem::path DataDir() { return rs::test::DataRoot() / "ardupilot_dataflash"; }
 
 double DistanceM(const GnssFix& a, const GnssFix& b) {
   // Equirectangular approximation: exact enough over a few metres.
@@ -58,12 +56,29 @@ DataflashBuilder SyntheticLog() {
                          .Put<float>(0.5f)
                          .str());
     }
-    b.Message(131, Payload().Put<uint64_t>(boot_us + 1000).Put<int16_t>(0).Put<int16_t>(0).Put<int16_t>(0)
-                       .Put<int16_t>(0).Put<uint16_t>(0).Put<uint16_t>(9000).str());
+    b.Message(131, Payload()
+                       .Put<uint64_t>(boot_us + 1000)
+                       .Put<int16_t>(0)
+                       .Put<int16_t>(0)
+                       .Put<int16_t>(0)
+                       .Put<int16_t>(0)
+                       .Put<uint16_t>(0)
+                       .Put<uint16_t>(9000)
+                       .str());
   }
-  b.Message(132, Payload().Put<uint64_t>(5500000).Put<uint8_t>(0).Put<uint16_t>(17).Put<uint32_t>(0)
-                     .Put<uint16_t>(0).Put<int32_t>(428500050).Put<int32_t>(-26800000).Put<int32_t>(52300)
-                     .Put<float>(30.f).Put<float>(521.f).Put<float>(0).str());
+  b.Message(132, Payload()
+                     .Put<uint64_t>(5500000)
+                     .Put<uint8_t>(0)
+                     .Put<uint16_t>(17)
+                     .Put<uint32_t>(0)
+                     .Put<uint16_t>(0)
+                     .Put<int32_t>(428500050)
+                     .Put<int32_t>(-26800000)
+                     .Put<int32_t>(52300)
+                     .Put<float>(30.f)
+                     .Put<float>(521.f)
+                     .Put<float>(0)
+                     .str());
   return b;
 }
 
@@ -189,7 +204,8 @@ TEST_P(DataflashSamples, Nominal) {
   EXPECT_NEAR(clock->max_residual_s, max_err_s, 1e-6);
   // Attitude: one unit quaternion per ATT record.
   EXPECT_EQ(t.attitude.size(), log.Find("ATT")->size());
-  for (const AttitudeSample& a : t.attitude) EXPECT_NEAR(a.qw * a.qw + a.qx * a.qx + a.qy * a.qy + a.qz * a.qz, 1, 1e-9);
+  for (const AttitudeSample& a : t.attitude)
+    EXPECT_NEAR(a.qw * a.qw + a.qx * a.qx + a.qy * a.qy + a.qz * a.qz, 1, 1e-9);
 }
 
 TEST_P(DataflashSamples, TruncatedAndBitFlipped) {

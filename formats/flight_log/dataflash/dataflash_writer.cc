@@ -51,9 +51,9 @@ T Checked(double v, const char* what) {
 double AmslM(double alt_m, AltitudeReference ref, double geoid_height_m, const char* what) {
   if (!std::isfinite(alt_m) || ref == AltitudeReference::kAmsl) return alt_m;
   if (ref == AltitudeReference::kEllipsoid && std::isfinite(geoid_height_m)) return alt_m - geoid_height_m;
-  throw std::invalid_argument(fmt::format(
-      "DataFlash writer: {} altitude is {}, but DataFlash stores AMSL altitudes{}", what, ToString(ref),
-      ref == AltitudeReference::kEllipsoid ? " (set DataflashWriteOptions::geoid_height_m)" : ""));
+  throw std::invalid_argument(
+      fmt::format("DataFlash writer: {} altitude is {}, but DataFlash stores AMSL altitudes{}", what, ToString(ref),
+                  ref == AltitudeReference::kEllipsoid ? " (set DataflashWriteOptions::geoid_height_m)" : ""));
 }
 
 /// Roll, pitch, yaw in centidegrees (ZYX Euler angles of body FRD in NED),
@@ -64,7 +64,8 @@ struct EulerCd {
 };
 EulerCd ToEulerCd(const AttitudeSample& a) {
   const double n = std::sqrt(a.qw * a.qw + a.qx * a.qx + a.qy * a.qy + a.qz * a.qz);
-  if (!std::isfinite(n) || n < 1e-9) throw std::invalid_argument(fmt::format("DataFlash writer: invalid attitude quaternion at {} ns", a.t_ns));
+  if (!std::isfinite(n) || n < 1e-9)
+    throw std::invalid_argument(fmt::format("DataFlash writer: invalid attitude quaternion at {} ns", a.t_ns));
   const double w = a.qw / n, x = a.qx / n, y = a.qy / n, z = a.qz / n;
   const double roll = std::atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y));
   const double pitch = std::asin(std::clamp(2 * (w * y - z * x), -1.0, 1.0));
@@ -102,9 +103,9 @@ class Message {
   }
   /// Message length (header included) implied by the columns.
   size_t Length() const {
-    static const std::map<char, int> kSize = {{'B', 1}, {'b', 1}, {'h', 2}, {'H', 2}, {'c', 2}, {'C', 2}, {'i', 4},
-                                              {'I', 4}, {'e', 4}, {'E', 4}, {'L', 4}, {'f', 4}, {'Q', 8}, {'q', 8},
-                                              {'d', 8}, {'n', 4}, {'N', 16}, {'Z', 64}};
+    static const std::map<char, int> kSize = {{'B', 1}, {'b', 1}, {'h', 2}, {'H', 2}, {'c', 2},  {'C', 2},
+                                              {'i', 4}, {'I', 4}, {'e', 4}, {'E', 4}, {'L', 4},  {'f', 4},
+                                              {'Q', 8}, {'q', 8}, {'d', 8}, {'n', 4}, {'N', 16}, {'Z', 64}};
     size_t len = 3;
     for (char c : format_) len += static_cast<size_t>(kSize.at(c));
     return len;
@@ -142,28 +143,34 @@ void WriteDataflashTrack(std::ostream& out, const FlightTrack& track, const Data
   for (const auto& a : track.attitude) first_us = std::min(first_us, RoundUs(a.t_ns));
   for (const auto& e : track.camera_events) first_us = std::min(first_us, RoundUs(e.t_ns));
   if (first_us == std::numeric_limits<int64_t>::max()) first_us = 0;
-  if (utc && options.first_sample_boot_us <= 0) throw std::invalid_argument("DataFlash writer: first_sample_boot_us must be > 0");
+  if (utc && options.first_sample_boot_us <= 0)
+    throw std::invalid_argument("DataFlash writer: first_sample_boot_us must be > 0");
   const int64_t boot_to_utc_us = utc ? first_us - options.first_sample_boot_us : 0;
   auto boot_us = [&](int64_t t_ns) {
     const int64_t b = RoundUs(t_ns) - boot_to_utc_us;
-    if (b < 0) throw std::invalid_argument(fmt::format("DataFlash writer: boot-time track has a negative time {} ns", t_ns));
+    if (b < 0)
+      throw std::invalid_argument(fmt::format("DataFlash writer: boot-time track has a negative time {} ns", t_ns));
     return b;
   };
   auto gps_time = [&](int64_t t_ns) { return utc ? dataflash::UtcNsToGpsWeekMs(t_ns) : dataflash::GpsWeekMs{}; };
 
   const auto& fixes = track.fixes;
   const auto& events = track.camera_events;
-  const bool all_status = std::all_of(fixes.begin(), fixes.end(), [](const GnssFix& f) { return f.fix_type >= 0 && f.fix_type <= 255; });
-  const bool all_sats = std::all_of(fixes.begin(), fixes.end(), [](const GnssFix& f) { return f.satellites >= 0 && f.satellites <= 255; });
+  const bool all_status =
+      std::all_of(fixes.begin(), fixes.end(), [](const GnssFix& f) { return f.fix_type >= 0 && f.fix_type <= 255; });
+  const bool all_sats = std::all_of(fixes.begin(), fixes.end(),
+                                    [](const GnssFix& f) { return f.satellites >= 0 && f.satellites <= 255; });
   const bool all_img = std::all_of(events.begin(), events.end(), [](const CameraEvent& e) {
     return e.sequence >= 0 && e.sequence <= std::numeric_limits<uint32_t>::max();
   });
   const bool all_pos = std::all_of(events.begin(), events.end(), [](const CameraEvent& e) {
     return std::isfinite(e.lat_deg) && std::isfinite(e.lon_deg);
   });
-  const bool all_alt = std::all_of(events.begin(), events.end(), [](const CameraEvent& e) { return std::isfinite(e.alt_m); });
-  const bool all_att = std::all_of(events.begin(), events.end(),
-                                   [&](const CameraEvent& e) { return AttitudeAt(track.attitude, e.t_ns).has_value(); });
+  const bool all_alt =
+      std::all_of(events.begin(), events.end(), [](const CameraEvent& e) { return std::isfinite(e.alt_m); });
+  const bool all_att = std::all_of(events.begin(), events.end(), [&](const CameraEvent& e) {
+    return AttitudeAt(track.attitude, e.t_ns).has_value();
+  });
 
   std::vector<std::pair<int64_t, std::string>> rows;
 
@@ -175,7 +182,8 @@ void WriteDataflashTrack(std::ostream& out, const FlightTrack& track, const Data
   if (all_sats) gps.Column('B', "NSats");
   for (auto [c, l] : {std::pair{'L', "Lat"}, {'L', "Lng"}, {'e', "Alt"}, {'f', "Spd"}}) gps.Column(c, l);
   for (const GnssFix& f : fixes) {
-    if (!std::isfinite(f.lat_deg) || !std::isfinite(f.lon_deg) || std::fabs(f.lat_deg) > 90 || std::fabs(f.lon_deg) > 180) {
+    if (!std::isfinite(f.lat_deg) || !std::isfinite(f.lon_deg) || std::fabs(f.lat_deg) > 90 ||
+        std::fabs(f.lon_deg) > 180) {
       throw std::invalid_argument(fmt::format("DataFlash writer: fix at {} ns has no valid lat/lon", f.t_ns));
     }
     const dataflash::GpsWeekMs g = gps_time(f.t_ns);
@@ -210,9 +218,11 @@ void WriteDataflashTrack(std::ostream& out, const FlightTrack& track, const Data
     cam.Put<uint64_t>(static_cast<uint64_t>(boot_us(e.t_ns))).Put<uint8_t>(0);
     if (all_img) cam.Put(static_cast<uint32_t>(e.sequence));
     cam.Put(static_cast<uint32_t>(g.ms)).Put(static_cast<uint16_t>(g.week));
-    if (all_pos) cam.Put(Checked<int32_t>(e.lat_deg * 1e7, "camera lat")).Put(Checked<int32_t>(e.lon_deg * 1e7, "camera lon"));
+    if (all_pos)
+      cam.Put(Checked<int32_t>(e.lat_deg * 1e7, "camera lat")).Put(Checked<int32_t>(e.lon_deg * 1e7, "camera lon"));
     if (all_alt) {
-      const int32_t alt_cm = Checked<int32_t>(AmslM(e.alt_m, e.alt_ref, geoid, "camera event") * 100, "camera altitude (cm)");
+      const int32_t alt_cm =
+          Checked<int32_t>(AmslM(e.alt_m, e.alt_ref, geoid, "camera event") * 100, "camera altitude (cm)");
       cam.Put(alt_cm).Put(alt_cm);
     }
     if (all_att) {
@@ -229,7 +239,8 @@ void WriteDataflashTrack(std::ostream& out, const FlightTrack& track, const Data
   out.write(s.data(), static_cast<std::streamsize>(s.size()));
 }
 
-void WriteDataflashTrack(const std::filesystem::path& path, const FlightTrack& track, const DataflashWriteOptions& options) {
+void WriteDataflashTrack(const std::filesystem::path& path, const FlightTrack& track,
+                         const DataflashWriteOptions& options) {
   WriteBinaryFile(path, [&](std::ostream& out) { WriteDataflashTrack(out, track, options); });
 }
 

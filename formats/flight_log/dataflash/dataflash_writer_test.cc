@@ -150,7 +150,8 @@ TEST(DataflashWriter, GpsWeekMs) {
 }
 
 TEST(DataflashWriter, DetectedAsDataflash) {
-  const auto path = std::filesystem::temp_directory_path() / ("dataflash_writer_test_" + std::to_string(::getpid()) + ".bin");
+  const auto path =
+      std::filesystem::temp_directory_path() / ("dataflash_writer_test_" + std::to_string(::getpid()) + ".bin");
   WriteDataflashTrack(path, TestTrack(), Geoid());
   EXPECT_EQ(DetectFlightLogFormat(path), "ardupilot-dataflash");
   EXPECT_EQ(ReadFlightLog(path).fixes.size(), 150u);

@@ -93,7 +93,8 @@ struct Flattener {
     offset += size;
   }
   void Flatten(const std::string& prefix, const std::string& type_name, int depth) {
-    if (depth > kMaxNestingDepth) throw std::invalid_argument("format nesting too deep (recursive type '" + type_name + "'?)");
+    if (depth > kMaxNestingDepth)
+      throw std::invalid_argument("format nesting too deep (recursive type '" + type_name + "'?)");
     auto it = formats.find(type_name);
     if (it == formats.end()) throw std::invalid_argument("undefined format '" + type_name + "'");
     for (const FormatField& f : it->second.fields) {
@@ -217,8 +218,10 @@ class Parser {
       case 'R': return size == 2;
       case 'S': return size == 8 && std::memcmp(p, kSyncMagic, 8) == 0;
       case 'A': return size >= 4 && f_.formats.count(std::string(reinterpret_cast<const char*>(p + 3), size - 3)) > 0;
-      case 'I': case 'P': return size >= 2 && p[0] > 0 && 1u + p[0] <= size;
-      case 'M': case 'Q': return size >= 3 && p[1] > 0 && 2u + p[1] <= size;
+      case 'I':
+      case 'P': return size >= 2 && p[0] > 0 && 1u + p[0] <= size;
+      case 'M':
+      case 'Q': return size >= 3 && p[1] > 0 && 2u + p[1] <= size;
       default: return false;
     }
   }
@@ -297,7 +300,8 @@ class Parser {
         return m.end;
       }
       case 'D': return Data(m);
-      case 'L': case 'C': return LoggedString(m);
+      case 'L':
+      case 'C': return LoggedString(m);
       case 'O': {
         if (m.size != 2) return Bad(m, "dropout message must be 2 bytes");
         f_.dropouts.push_back({f_.last_timestamp_us, U16(m.p)});
@@ -336,7 +340,8 @@ class Parser {
         const uint64_t off = U64(m.p + 16 + 8 * i);
         if (off == 0) continue;
         if (off <= m.end || off > d_.size() || off <= prev) {
-          if (!opt_.recover) Fail(m.pos, fmt::format("appended-data offset {} outside the file ({} bytes)", off, d_.size()));
+          if (!opt_.recover)
+            Fail(m.pos, fmt::format("appended-data offset {} outside the file ({} bytes)", off, d_.size()));
           f_.skips.push_back({static_cast<int64_t>(m.pos), 0, fmt::format("ignored appended-data offset {}", off)});
           continue;
         }
@@ -429,7 +434,8 @@ class Parser {
     t.record_size = t.fields.empty() ? 0 : t.fields.back().offset + BaseTypeSize(t.fields.back().type);
     if (t.record_size == 0) return Bad(m, fmt::format("subscription to empty topic '{}'", name));
     for (size_t i = 0; i < t.fields.size(); ++i) {
-      if (t.fields[i].name == "timestamp" && t.fields[i].type == BaseType::kUInt64) t.timestamp_field = static_cast<int>(i);
+      if (t.fields[i].name == "timestamp" && t.fields[i].type == BaseType::kUInt64)
+        t.timestamp_field = static_cast<int>(i);
     }
     const auto key = std::make_pair(name, static_cast<int>(multi_id));
     auto it = by_name_.find(key);
@@ -473,7 +479,8 @@ class Parser {
     in_definitions_ = false;
     const bool tagged = m.type == 'C';
     const size_t text_at = tagged ? 11 : 9;
-    if (m.size < text_at) return Bad(m, tagged ? "tagged logged string message too short" : "logged string message too short");
+    if (m.size < text_at)
+      return Bad(m, tagged ? "tagged logged string message too short" : "logged string message too short");
     LogMessage lm;
     lm.level = m.p[0];
     if (tagged) {
@@ -509,10 +516,18 @@ class Parser {
 
 int BaseTypeSize(BaseType t) {
   switch (t) {
-    case BaseType::kInt8: case BaseType::kUInt8: case BaseType::kBool: case BaseType::kChar: return 1;
-    case BaseType::kInt16: case BaseType::kUInt16: return 2;
-    case BaseType::kInt32: case BaseType::kUInt32: case BaseType::kFloat: return 4;
-    case BaseType::kInt64: case BaseType::kUInt64: case BaseType::kDouble: return 8;
+    case BaseType::kInt8:
+    case BaseType::kUInt8:
+    case BaseType::kBool:
+    case BaseType::kChar: return 1;
+    case BaseType::kInt16:
+    case BaseType::kUInt16: return 2;
+    case BaseType::kInt32:
+    case BaseType::kUInt32:
+    case BaseType::kFloat: return 4;
+    case BaseType::kInt64:
+    case BaseType::kUInt64:
+    case BaseType::kDouble: return 8;
   }
   return 1;
 }
@@ -550,7 +565,8 @@ const char* BaseTypeName(BaseType t) {
   return "?";
 }
 
-std::vector<FlatField> FlattenFormat(const std::map<std::string, MessageFormat>& formats, const std::string& type_name) {
+std::vector<FlatField> FlattenFormat(const std::map<std::string, MessageFormat>& formats,
+                                     const std::string& type_name) {
   Flattener f{formats, {}, 0};
   f.Flatten("", type_name, 0);
   return std::move(f.out);
@@ -578,8 +594,10 @@ int64_t Topic::IntValue(size_t row, size_t field) const {
   const FlatField& f = fields[field];
   const uint8_t* p = records.data() + row * record_size + f.offset;
   switch (f.type) {
-    case BaseType::kInt8: case BaseType::kChar: return Load<int8_t>(p);
-    case BaseType::kUInt8: case BaseType::kBool: return Load<uint8_t>(p);
+    case BaseType::kInt8:
+    case BaseType::kChar: return Load<int8_t>(p);
+    case BaseType::kUInt8:
+    case BaseType::kBool: return Load<uint8_t>(p);
     case BaseType::kInt16: return Load<int16_t>(p);
     case BaseType::kUInt16: return Load<uint16_t>(p);
     case BaseType::kInt32: return Load<int32_t>(p);
@@ -599,7 +617,8 @@ int64_t Topic::IntValue(size_t row, size_t field) const {
 }
 
 uint64_t Topic::UInt64Value(size_t row, size_t field) const {
-  if (fields[field].type == BaseType::kUInt64) return Load<uint64_t>(records.data() + row * record_size + fields[field].offset);
+  if (fields[field].type == BaseType::kUInt64)
+    return Load<uint64_t>(records.data() + row * record_size + fields[field].offset);
   return static_cast<uint64_t>(IntValue(row, field));
 }
 
@@ -627,8 +646,10 @@ std::optional<int64_t> InfoValue::AsInt() const {
   if (!ParseBaseType(type, &bt) || bytes.size() != static_cast<size_t>(BaseTypeSize(bt))) return std::nullopt;
   const uint8_t* p = bytes.data();
   switch (bt) {
-    case BaseType::kInt8: case BaseType::kChar: return Load<int8_t>(p);
-    case BaseType::kUInt8: case BaseType::kBool: return Load<uint8_t>(p);
+    case BaseType::kInt8:
+    case BaseType::kChar: return Load<int8_t>(p);
+    case BaseType::kUInt8:
+    case BaseType::kBool: return Load<uint8_t>(p);
     case BaseType::kInt16: return Load<int16_t>(p);
     case BaseType::kUInt16: return Load<uint16_t>(p);
     case BaseType::kInt32: return Load<int32_t>(p);

@@ -52,11 +52,11 @@ struct FlatField {
 struct Topic {
   std::string name;
   uint8_t multi_id = 0;
-  uint16_t msg_id = 0;               ///< msg_id of its (last) subscription
-  std::vector<FlatField> fields;     ///< trailing _padding fields removed, as pyulog does
-  uint32_t record_size = 0;          ///< sum of the field sizes (bytes stored per record)
-  uint32_t max_record_size = 0;      ///< record_size plus trailing padding (largest accepted data message)
-  std::vector<uint8_t> records;      ///< size() * record_size bytes
+  uint16_t msg_id = 0;            ///< msg_id of its (last) subscription
+  std::vector<FlatField> fields;  ///< trailing _padding fields removed, as pyulog does
+  uint32_t record_size = 0;       ///< sum of the field sizes (bytes stored per record)
+  uint32_t max_record_size = 0;   ///< record_size plus trailing padding (largest accepted data message)
+  std::vector<uint8_t> records;   ///< size() * record_size bytes
 
   /// Number of records.
   size_t size() const { return record_size ? records.size() / record_size : 0; }
@@ -101,9 +101,9 @@ struct ParamChange {
 
 /// A logged string ('L' or tagged 'C').
 struct LogMessage {
-  uint8_t level = 0;      ///< ASCII '0' (emergency) .. '7' (debug)
+  uint8_t level = 0;  ///< ASCII '0' (emergency) .. '7' (debug)
   bool tagged = false;
-  uint16_t tag = 0;       ///< only for tagged messages
+  uint16_t tag = 0;  ///< only for tagged messages
   uint64_t timestamp_us = 0;
   std::string text;
   /// "EMERGENCY" .. "DEBUG", "UNKNOWN" for other bytes.
@@ -148,8 +148,8 @@ struct UlogFile {
   std::vector<LogMessage> messages;  ///< plain and tagged, in file order
   std::vector<Dropout> dropouts;
   int sync_count = 0;
-  std::vector<Topic> topics;  ///< sorted by (name, multi_id)
-  std::vector<Skip> skips;    ///< recovery mode: what was skipped and why
+  std::vector<Topic> topics;                  ///< sorted by (name, multi_id)
+  std::vector<Skip> skips;                    ///< recovery mode: what was skipped and why
   std::map<char, int> unknown_message_types;  ///< unknown (future) message types skipped, by type letter
   int messages_cut_at_appended_offset = 0;    ///< messages cut where appended data starts (normal for crash dumps)
 

@@ -100,8 +100,8 @@ TEST(UlogFile, Nominal) {
   ASSERT_EQ(p->size(), 2u);
   EXPECT_EQ(p->record_size, 8u + 4u + 36u);
   EXPECT_EQ(p->max_record_size, p->record_size + 3);
-  const std::vector<std::string> names = {"timestamp", "a[0]", "a[1]", "v.x", "v.y", "v.z", "w[0].x", "w[0].y",
-                                          "w[0].z", "w[1].x", "w[1].y", "w[1].z"};
+  const std::vector<std::string> names = {"timestamp", "a[0]",   "a[1]",   "v.x",    "v.y",    "v.z",
+                                          "w[0].x",    "w[0].y", "w[0].z", "w[1].x", "w[1].y", "w[1].z"};
   ASSERT_EQ(p->fields.size(), names.size());
   for (size_t i = 0; i < names.size(); ++i) EXPECT_EQ(p->fields[i].name, names[i]);
   EXPECT_EQ(p->TimestampUs(1), 3000u);

@@ -15,8 +15,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     try {
       const rs::FlightTrack t = rs::ReadUlogTrack(in, "fuzz.ulg", rs::ulog::ReadOptions{recover});
       (void)t;
-    } catch (const rs::InputError&) {
-    }
+    } catch (const rs::InputError&) {}
   }
   return 0;
 }

@@ -19,9 +19,7 @@
 namespace rs::ulog {
 namespace {
 
-std::filesystem::path SampleDir() {
-  return rs::test::DataRoot() / "px4_ulog" / "test";
-}
+std::filesystem::path SampleDir() { return rs::test::DataRoot() / "px4_ulog" / "test"; }
 
 std::vector<std::string> ReadLines(const std::filesystem::path& p) {
   std::ifstream in(p);
@@ -41,13 +39,20 @@ std::string PyRepr(const std::string& s) {
   const char q = has_single && !has_double ? '"' : '\'';
   std::string out(1, q);
   for (unsigned char c : s) {
-    if (c == '\\') out += "\\\\";
-    else if (c == static_cast<unsigned char>(q)) out += std::string("\\") + static_cast<char>(q);
-    else if (c == '\n') out += "\\n";
-    else if (c == '\r') out += "\\r";
-    else if (c == '\t') out += "\\t";
-    else if (c < 0x20 || c == 0x7f) out += fmt::format("\\x{:02x}", c);
-    else out += static_cast<char>(c);
+    if (c == '\\')
+      out += "\\\\";
+    else if (c == static_cast<unsigned char>(q))
+      out += std::string("\\") + static_cast<char>(q);
+    else if (c == '\n')
+      out += "\\n";
+    else if (c == '\r')
+      out += "\\r";
+    else if (c == '\t')
+      out += "\\t";
+    else if (c < 0x20 || c == 0x7f)
+      out += fmt::format("\\x{:02x}", c);
+    else
+      out += static_cast<char>(c);
   }
   return out + q;
 }
@@ -66,12 +71,18 @@ InfoExpectation ParseInfoFile(const std::filesystem::path& p) {
   const auto lines = ReadLines(p);
   enum { kHead, kInfo, kMulti, kTopics } section = kHead;
   for (const std::string& l : lines) {
-    if (l.rfind("Logging start time:", 0) == 0) e.start_line = l;
-    else if (l.rfind("Dropouts:", 0) == 0 || l == "No Dropouts") e.dropout_line = l;
-    else if (l == "Info Messages:") section = kInfo;
-    else if (l == "Info Multiple Messages:") section = kMulti;
-    else if (l.rfind("Name (multi id", 0) == 0) section = kTopics;
-    else if (l.rfind("SW Version:", 0) == 0 || l.empty()) continue;
+    if (l.rfind("Logging start time:", 0) == 0)
+      e.start_line = l;
+    else if (l.rfind("Dropouts:", 0) == 0 || l == "No Dropouts")
+      e.dropout_line = l;
+    else if (l == "Info Messages:")
+      section = kInfo;
+    else if (l == "Info Multiple Messages:")
+      section = kMulti;
+    else if (l.rfind("Name (multi id", 0) == 0)
+      section = kTopics;
+    else if (l.rfind("SW Version:", 0) == 0 || l.empty())
+      continue;
     else if (section == kInfo || section == kMulti) {
       const size_t colon = l.find(": ");
       if (l.size() < 2 || l[0] != ' ' || colon == std::string::npos) {

@@ -61,7 +61,9 @@ class UlogBuilder {
   UlogBuilder& Subscribe(uint8_t multi_id, uint16_t msg_id, const std::string& name) {
     return Raw('A', Bytes().Put(multi_id).Put(msg_id).Str(name).str());
   }
-  UlogBuilder& Data(uint16_t msg_id, const std::string& record) { return Raw('D', Bytes().Put(msg_id).Str(record).str()); }
+  UlogBuilder& Data(uint16_t msg_id, const std::string& record) {
+    return Raw('D', Bytes().Put(msg_id).Str(record).str());
+  }
   UlogBuilder& Log(char level, uint64_t t_us, const std::string& text) {
     return Raw('L', Bytes().Put<uint8_t>(static_cast<uint8_t>(level)).Put(t_us).Str(text).str());
   }

@@ -71,8 +71,8 @@ std::optional<int64_t> BootToUtcOffsetUs(const Topic* gps, FlightTrack* track) {
   }
   if (offsets.empty()) return std::nullopt;
   std::nth_element(offsets.begin(), offsets.begin() + offsets.size() / 2, offsets.end());
-  track->notes.push_back(fmt::format("UTC from {}.time_utc_usec (median boot->UTC offset over {} records)",
-                                     gps->name, offsets.size()));
+  track->notes.push_back(
+      fmt::format("UTC from {}.time_utc_usec (median boot->UTC offset over {} records)", gps->name, offsets.size()));
   return offsets[offsets.size() / 2];
 }
 
@@ -121,8 +121,7 @@ void AddFixes(const ulog::UlogFile& log, const Topic* gps, BootClock* clock, Fli
     f.lon_deg = Degrees(*pos, r, *ilon);
     if (ifix) f.fix_type = static_cast<int>(pos->IntValue(r, *ifix));
     const bool no_fix = (ifix && f.fix_type < 2) || !std::isfinite(f.lat_deg) || !std::isfinite(f.lon_deg) ||
-                        std::fabs(f.lat_deg) > 90 || std::fabs(f.lon_deg) > 180 ||
-                        (f.lat_deg == 0 && f.lon_deg == 0);
+                        std::fabs(f.lat_deg) > 90 || std::fabs(f.lon_deg) > 180 || (f.lat_deg == 0 && f.lon_deg == 0);
     if (no_fix) {
       ++dropped;
       continue;
@@ -138,7 +137,8 @@ void AddFixes(const ulog::UlogFile& log, const Topic* gps, BootClock* clock, Fli
     track->fixes.push_back(f);
   }
   if (dropped > 0) {
-    track->notes.push_back(fmt::format("dropped {} of {} {} records without a position fix", dropped, pos->size(), pos->name));
+    track->notes.push_back(
+        fmt::format("dropped {} of {} {} records without a position fix", dropped, pos->size(), pos->name));
   }
 }
 
@@ -180,7 +180,8 @@ void AddAttitude(const ulog::UlogFile& log, BootClock* clock, FlightTrack* track
     NormalizeQuat(&a);
     track->attitude.push_back(a);
   }
-  if (dropped > 0) track->notes.push_back(fmt::format("dropped {} vehicle_attitude records with an invalid quaternion", dropped));
+  if (dropped > 0)
+    track->notes.push_back(fmt::format("dropped {} vehicle_attitude records with an invalid quaternion", dropped));
 }
 
 /// Camera capture (or trigger) events, with the position PX4 logged for each where it did.
@@ -214,7 +215,8 @@ void AddFileNotes(const ulog::UlogFile& log, FlightTrack* track) {
     track->notes.push_back(fmt::format("skipped {} bytes at byte {}: {}", s.bytes, s.offset, s.reason));
   }
   if (log.messages_cut_at_appended_offset > 0) {
-    track->notes.push_back(fmt::format("{} message(s) cut where appended data starts", log.messages_cut_at_appended_offset));
+    track->notes.push_back(
+        fmt::format("{} message(s) cut where appended data starts", log.messages_cut_at_appended_offset));
   }
   for (const auto& [type, n] : log.unknown_message_types) {
     track->notes.push_back(fmt::format("skipped {} message(s) of unknown type '{}'", n, type));
@@ -241,7 +243,8 @@ FlightTrack UlogToFlightTrack(const ulog::UlogFile& log, const std::string& path
   AddAttitude(log, &clock, &track);
   AddCameraEvents(log, &clock, &track);
 
-  if (clock.bad_times > 0) track.notes.push_back(fmt::format("dropped {} records with an implausible timestamp", clock.bad_times));
+  if (clock.bad_times > 0)
+    track.notes.push_back(fmt::format("dropped {} records with an implausible timestamp", clock.bad_times));
   auto by_t = [](const auto& a, const auto& b) { return a.t_ns < b.t_ns; };
   std::stable_sort(track.fixes.begin(), track.fixes.end(), by_t);
   std::stable_sort(track.attitude.begin(), track.attitude.end(), by_t);

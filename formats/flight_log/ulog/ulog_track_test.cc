@@ -15,9 +15,7 @@ namespace {
 using ulog::testing::Bytes;
 using ulog::testing::UlogBuilder;
 
-std::filesystem::path Sample(const char* name) {
-  return rs::test::DataRoot() / "px4_ulog" / "test" / name;
-}
+std::filesystem::path Sample(const char* name) { return rs::test::DataRoot() / "px4_ulog" / "test" / name; }
 
 double DistanceM(const GnssFix& a, const GnssFix& b) {
   const double k = 6371000.0 * M_PI / 180.0;
@@ -28,9 +26,10 @@ constexpr int64_t kUtcOffsetUs = 1618990000000000;  // boot 0 = 2021-04-21 07:26
 
 std::string Synthetic(bool euler_attitude) {
   UlogBuilder b(100);
-  b.Format("vehicle_gps_position:uint64_t timestamp;uint64_t time_utc_usec;int32_t lat;int32_t lon;int32_t alt;"
-           "int32_t alt_ellipsoid;float eph;float epv;float vel_m_s;uint8_t fix_type;uint8_t satellites_used;"
-           "uint8_t[2] _padding0;");
+  b.Format(
+      "vehicle_gps_position:uint64_t timestamp;uint64_t time_utc_usec;int32_t lat;int32_t lon;int32_t alt;"
+      "int32_t alt_ellipsoid;float eph;float epv;float vel_m_s;uint8_t fix_type;uint8_t satellites_used;"
+      "uint8_t[2] _padding0;");
   if (euler_attitude) {
     b.Format("vehicle_attitude:uint64_t timestamp;float roll;float pitch;float yaw;");
   } else {
@@ -55,12 +54,16 @@ std::string Synthetic(bool euler_attitude) {
                   .Put<uint8_t>(15)
                   .str());
     if (euler_attitude) {
-      b.Data(2, Bytes().Put<uint64_t>(t + 10).Put<float>(0).Put<float>(0).Put<float>(static_cast<float>(M_PI / 2)).str());
+      b.Data(2,
+             Bytes().Put<uint64_t>(t + 10).Put<float>(0).Put<float>(0).Put<float>(static_cast<float>(M_PI / 2)).str());
     } else {
-      b.Data(2, Bytes().Put<uint64_t>(t + 10).Put<float>(0.5f).Put<float>(0.5f).Put<float>(0.5f).Put<float>(0.5f).str());
+      b.Data(2,
+             Bytes().Put<uint64_t>(t + 10).Put<float>(0.5f).Put<float>(0.5f).Put<float>(0.5f).Put<float>(0.5f).str());
     }
   }
-  b.Data(3, Bytes().Put<uint64_t>(1300000).Put<uint32_t>(42).Put<double>(63.417).Put<double>(10.408).Put<float>(70.f).str());
+  b.Data(
+      3,
+      Bytes().Put<uint64_t>(1300000).Put<uint32_t>(42).Put<double>(63.417).Put<double>(10.408).Put<float>(70.f).str());
   return b.str();
 }
 
@@ -131,7 +134,8 @@ TEST(UlogTrack, SampleLogSmall) {
     }
   }
   EXPECT_EQ(t.attitude.size(), log.FindTopic("vehicle_attitude")->size());
-  for (const AttitudeSample& a : t.attitude) EXPECT_NEAR(a.qw * a.qw + a.qx * a.qx + a.qy * a.qy + a.qz * a.qz, 1, 1e-9);
+  for (const AttitudeSample& a : t.attitude)
+    EXPECT_NEAR(a.qw * a.qw + a.qx * a.qx + a.qy * a.qy + a.qz * a.qz, 1, 1e-9);
 }
 
 TEST(UlogTrack, SampleWithoutGps) {

@@ -46,9 +46,9 @@ double AmslM(double alt_m, AltitudeReference ref, double geoid_height_m, const c
   if (!std::isfinite(alt_m)) return alt_m;
   if (ref == AltitudeReference::kAmsl) return alt_m;
   if (ref == AltitudeReference::kEllipsoid && std::isfinite(geoid_height_m)) return alt_m - geoid_height_m;
-  throw std::invalid_argument(fmt::format(
-      "ULog writer: {} altitude is {}, but ULog stores AMSL altitudes{}", what, ToString(ref),
-      ref == AltitudeReference::kEllipsoid ? " (set UlogWriteOptions::geoid_height_m)" : ""));
+  throw std::invalid_argument(
+      fmt::format("ULog writer: {} altitude is {}, but ULog stores AMSL altitudes{}", what, ToString(ref),
+                  ref == AltitudeReference::kEllipsoid ? " (set UlogWriteOptions::geoid_height_m)" : ""));
 }
 
 /// A data record waiting to be written, ordered by boot time.
@@ -80,15 +80,18 @@ void WriteUlogTrack(std::ostream& out, const FlightTrack& track, const UlogWrite
     return b;
   };
 
-  const bool all_fix_type = std::all_of(track.fixes.begin(), track.fixes.end(), [](const GnssFix& f) { return f.fix_type >= 0 && f.fix_type <= 255; });
-  const bool all_sats = std::all_of(track.fixes.begin(), track.fixes.end(), [](const GnssFix& f) { return f.satellites >= 0 && f.satellites <= 255; });
+  const bool all_fix_type = std::all_of(track.fixes.begin(), track.fixes.end(),
+                                        [](const GnssFix& f) { return f.fix_type >= 0 && f.fix_type <= 255; });
+  const bool all_sats = std::all_of(track.fixes.begin(), track.fixes.end(),
+                                    [](const GnssFix& f) { return f.satellites >= 0 && f.satellites <= 255; });
   const bool all_seq = std::all_of(track.camera_events.begin(), track.camera_events.end(), [](const CameraEvent& e) {
     return e.sequence >= 0 && e.sequence <= std::numeric_limits<uint32_t>::max();
   });
   const bool with_ellipsoid = std::isfinite(geoid);
 
   // Field order follows PX4's logged layout: 8-byte fields, then 4-byte, then 1-byte.
-  std::string gps_fmt = "vehicle_gps_position:uint64_t timestamp;uint64_t time_utc_usec;int32_t lat;int32_t lon;int32_t alt;";
+  std::string gps_fmt =
+      "vehicle_gps_position:uint64_t timestamp;uint64_t time_utc_usec;int32_t lat;int32_t lon;int32_t alt;";
   if (with_ellipsoid) gps_fmt += "int32_t alt_ellipsoid;";
   gps_fmt += "float eph;float epv;float vel_m_s;";
   if (all_fix_type) gps_fmt += "uint8_t fix_type;";
@@ -102,7 +105,8 @@ void WriteUlogTrack(std::ostream& out, const FlightTrack& track, const UlogWrite
   std::vector<Record> records;
   records.reserve(track.fixes.size() + track.attitude.size() + track.camera_events.size());
   for (const GnssFix& f : track.fixes) {
-    if (!std::isfinite(f.lat_deg) || !std::isfinite(f.lon_deg) || std::fabs(f.lat_deg) > 90 || std::fabs(f.lon_deg) > 180) {
+    if (!std::isfinite(f.lat_deg) || !std::isfinite(f.lon_deg) || std::fabs(f.lat_deg) > 90 ||
+        std::fabs(f.lon_deg) > 180) {
       throw std::invalid_argument(fmt::format("ULog writer: fix at {} ns has no valid lat/lon", f.t_ns));
     }
     const double amsl = AmslM(f.alt_m, f.alt_ref, geoid, "fix");
@@ -120,7 +124,10 @@ void WriteUlogTrack(std::ostream& out, const FlightTrack& track, const UlogWrite
   for (const AttitudeSample& a : track.attitude) {
     Bytes b;
     b.Put<uint64_t>(static_cast<uint64_t>(boot_us(a.t_ns)));
-    b.Put(static_cast<float>(a.qw)).Put(static_cast<float>(a.qx)).Put(static_cast<float>(a.qy)).Put(static_cast<float>(a.qz));
+    b.Put(static_cast<float>(a.qw))
+        .Put(static_cast<float>(a.qx))
+        .Put(static_cast<float>(a.qy))
+        .Put(static_cast<float>(a.qz));
     records.push_back({boot_us(a.t_ns), kAttId, std::move(b.str())});
   }
   for (const CameraEvent& e : track.camera_events) {
@@ -136,7 +143,8 @@ void WriteUlogTrack(std::ostream& out, const FlightTrack& track, const UlogWrite
     b.Put<int8_t>(1);  // every logged event is a capture that happened
     records.push_back({boot_us(e.t_ns), kCamId, std::move(b.str())});
   }
-  std::stable_sort(records.begin(), records.end(), [](const Record& x, const Record& y) { return x.boot_us < y.boot_us; });
+  std::stable_sort(records.begin(), records.end(),
+                   [](const Record& x, const Record& y) { return x.boot_us < y.boot_us; });
 
   std::string s;
   // Header: magic, version 1, logging start (boot µs).
@@ -152,7 +160,8 @@ void WriteUlogTrack(std::ostream& out, const FlightTrack& track, const UlogWrite
   };
   info("sys_name", options.sys_name);
   if (!track.source_path.empty()) info("roadsurvey_source", track.source_path);
-  const std::pair<uint16_t, const char*> topics[] = {{kGpsId, "vehicle_gps_position"}, {kAttId, "vehicle_attitude"}, {kCamId, "camera_capture"}};
+  const std::pair<uint16_t, const char*> topics[] = {
+      {kGpsId, "vehicle_gps_position"}, {kAttId, "vehicle_attitude"}, {kCamId, "camera_capture"}};
   for (const auto& [id, name] : topics) PutMessage(&s, kAddLogged, Bytes().Put<uint8_t>(0).Put(id).Str(name).str());
   for (const Record& r : records) PutMessage(&s, kData, Bytes().Put(r.msg_id).Str(r.bytes).str());
   out.write(s.data(), static_cast<std::streamsize>(s.size()));

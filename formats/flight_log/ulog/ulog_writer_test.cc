@@ -138,7 +138,8 @@ TEST(UlogWriter, Nominal) {
 }
 
 TEST(UlogWriter, DetectedAsUlog) {
-  const auto path = std::filesystem::temp_directory_path() / ("ulog_writer_test_" + std::to_string(::getpid()) + ".ulg");
+  const auto path =
+      std::filesystem::temp_directory_path() / ("ulog_writer_test_" + std::to_string(::getpid()) + ".ulg");
   UlogWriteOptions o;
   o.geoid_height_m = kGeoidM;
   WriteUlogTrack(path, TestTrack(), o);

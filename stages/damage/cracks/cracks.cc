@@ -19,8 +19,10 @@ cv::Mat Grey(const cv::Mat& image) {
   if (image.empty() || image.depth() != CV_8U || (image.channels() != 1 && image.channels() != 3))
     throw std::invalid_argument("DetectCracks: image must be 8-bit grey or BGR");
   cv::Mat grey;
-  if (image.channels() == 3) cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
-  else grey = image;
+  if (image.channels() == 3)
+    cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
+  else
+    grey = image;
   return grey;
 }
 
@@ -137,8 +139,10 @@ cv::Mat LocalLevelGrid(const cv::Mat& response, const cv::Mat& search, const Cra
         for (int y = std::max(0, cy - 1); y <= std::min(ny - 1, cy + 1); ++y)
           for (int x = std::max(0, cx - 1); x <= std::min(nx - 1, cx + 1); ++x)
             if (const cv::Vec2f g = grid.at<cv::Vec2f>(y, x); !std::isnan(g[0])) sum += g, ++n;
-        if (n) next.at<cv::Vec2f>(cy, cx) = sum / n;
-        else missing = true;
+        if (n)
+          next.at<cv::Vec2f>(cy, cx) = sum / n;
+        else
+          missing = true;
       }
     if (!any_known) return cv::Mat(1, 1, CV_32FC2, cv::Scalar(med, sigma));
     grid = next;
@@ -177,7 +181,8 @@ cv::Mat LineSupport(const cv::Mat& response, int length_px) {
     const double th = CV_PI * i / kDirections;
     acc = cv::Mat::zeros(half.size(), CV_16U);
     for (int t = -h; t <= h; ++t) {
-      const int dx = static_cast<int>(std::lround(t * std::cos(th))), dy = static_cast<int>(std::lround(t * std::sin(th)));
+      const int dx = static_cast<int>(std::lround(t * std::cos(th))),
+                dy = static_cast<int>(std::lround(t * std::sin(th)));
       acc += padded(core + cv::Point(dx, dy));
     }
     best = cv::max(best, acc);
@@ -301,7 +306,7 @@ CrackDetection DetectCracks(const cv::Mat& image, const cv::Mat& road_mask, cons
   int next = 0;
   for (int i = 1; i < n && next < 65535; ++i) {
     if (std::max(stats.at<int>(i, cv::CC_STAT_WIDTH), stats.at<int>(i, cv::CC_STAT_HEIGHT)) < o.min_length_px / 2)
-      continue;  // cannot be long enough
+      continue;                   // cannot be long enough
     if (!pixel_size_m.empty()) {  // nor on the road: a path is at most √2 × (w + h) px long
       const int w = stats.at<int>(i, cv::CC_STAT_WIDTH), h = stats.at<int>(i, cv::CC_STAT_HEIGHT);
       const float ps = pixel_size_m.at<float>(cvRound(cent.at<double>(i, 1)), cvRound(cent.at<double>(i, 0)));

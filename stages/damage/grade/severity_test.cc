@@ -12,8 +12,8 @@ using L = SeverityLevel;
 TEST(GradeAstmPothole, Nominal) {
   const SeverityOptions o;
   const double depth[3] = {0.020, 0.040, 0.060}, diam[3] = {0.150, 0.300, 0.600};
-  const L table[3][3] = {{L::kLow, L::kLow, L::kMedium}, {L::kLow, L::kMedium, L::kHigh},
-                         {L::kMedium, L::kMedium, L::kHigh}};
+  const L table[3][3] = {
+      {L::kLow, L::kLow, L::kMedium}, {L::kLow, L::kMedium, L::kHigh}, {L::kMedium, L::kMedium, L::kHigh}};
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) {
       const SeverityGrade g = GradeAstmPothole(depth[i], diam[j], 0.1, o);
@@ -36,7 +36,7 @@ TEST(GradeAstmPothole, WiderThanTable) {
 
 TEST(GradeAstmPothole, BelowTable) {
   const SeverityOptions o;
-  EXPECT_EQ(GradeAstmPothole(0.010, 0.300, 0.07, o).level, L::kNone);  // too shallow
+  EXPECT_EQ(GradeAstmPothole(0.010, 0.300, 0.07, o).level, L::kNone);   // too shallow
   EXPECT_EQ(GradeAstmPothole(0.040, 0.080, 0.005, o).level, L::kNone);  // too small
   EXPECT_EQ(GradeAstmPothole(kUnknown, 0.3, 0.07, o).level, L::kNone);
 }

@@ -22,8 +22,8 @@ struct RayPoint {
 // Per lateral strip: the near rim (the nearest crossing) and the tangent of the ray over it.
 struct Strip {
   double x_rim = 1e300, tan_rim = 0;
-  double shadow_edge_depth_m = 0;  ///< deepest seen depth of the rays grazing the rim (on the shadow line)
-  double deep_start_m = 1e300;     ///< clearance where the strip first sees the deepest part
+  double shadow_edge_depth_m = 0;               ///< deepest seen depth of the rays grazing the rim (on the shadow line)
+  double deep_start_m = 1e300;                  ///< clearance where the strip first sees the deepest part
   std::vector<std::pair<double, double>> seen;  ///< (along-view position, depth) of the seen points
 };
 
@@ -134,7 +134,6 @@ Completion CompleteHidden(const std::vector<std::pair<double, double>>& seen, do
   return c;
 }
 
-
 // The instance's pixels as rays: where each crosses the road, its horizontal offset from the
 // camera's foot on the plane, and the sums the analysis averages.
 struct RayCloud {
@@ -148,7 +147,7 @@ RayCloud CollectRays(const cv::Mat& labels, int id, const cv::Rect& box, const R
                      const RoadSurface& s) {
   RayCloud rc;
   std::vector<RayPoint>& pts = rc.pts;
-  const Eigen::Vector3d n = s.normal;  // unit, towards the camera
+  const Eigen::Vector3d n = s.normal;                  // unit, towards the camera
   const Eigen::Vector3d foot = n.dot(s.origin_m) * n;  // the camera centre (origin) dropped onto the plane
   for (int v = box.y; v < box.y + box.height; ++v) {
     const uint16_t* l = labels.ptr<uint16_t>(v);
@@ -188,7 +187,8 @@ HiddenStretches CompleteStrips(std::vector<Strip>& strips, double tan_rim, doubl
     if (!(d > 0) || !(st.tan_rim > 0)) continue;
     std::sort(st.seen.begin(), st.seen.end());
     const double x_grazing = st.x_rim + d / st.tan_rim;
-    const double mid = FarWallSlope(st.seen, x_grazing, 0.3 * d, 0.7 * d), low = FarWallSlope(st.seen, x_grazing, 0.7 * d, d);
+    const double mid = FarWallSlope(st.seen, x_grazing, 0.3 * d, 0.7 * d),
+                 low = FarWallSlope(st.seen, x_grazing, 0.7 * d, d);
     if (mid > 0 && std::isfinite(low)) mids.push_back(mid), lows.push_back(low);
   }
   WallTrend trend;
@@ -362,9 +362,8 @@ void AnalyseFloorVisibility(std::vector<DamageInstance>& instances, const cv::Ma
     if (d.type == DamageType::kCrack) continue;
     d.max_depth_seen_m = d.max_depth_m, d.volume_seen_m3 = d.volume_m3;
     if (!std::isfinite(d.max_depth_m) || d.id >= static_cast<int>(boxes.size())) continue;
-    const FloorVisibility f =
-        AnalyseFloorVisibility(labels, d.id, boxes[d.id], r, g, s, o, d.max_depth_m, d.volume_m3, d.area_m2,
-                               d.sigma_depth_m);
+    const FloorVisibility f = AnalyseFloorVisibility(labels, d.id, boxes[d.id], r, g, s, o, d.max_depth_m, d.volume_m3,
+                                                     d.area_m2, d.sigma_depth_m);
     if (!f.analysed) continue;
     d.floor_visible = f.floor_visible;
     d.max_depth_m = f.max_depth_estimate_m;

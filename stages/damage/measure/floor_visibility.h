@@ -21,7 +21,7 @@ namespace rs {
 
 /// Line-of-sight result of one depression.
 struct FloorVisibility {
-  bool analysed = false;      ///< false: no valid depth or no road under it (fields below unknown)
+  bool analysed = false;  ///< false: no valid depth or no road under it (fields below unknown)
   /// The deepest seen surface reaches options.floor_clearance_px rows farther from the near
   /// rim's shadow line than where it begins (exact disparity: clear of the line by that much).
   bool floor_visible = true;

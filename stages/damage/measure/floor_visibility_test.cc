@@ -51,7 +51,8 @@ Truth TruthOf(const Case& c) {
       const float d = disp.at<float>(v, u);
       if (!(d > 0)) continue;
       const double z = s.geometry.f_px * s.geometry.baseline_m / d;
-      const Eigen::Vector3d p((u - s.geometry.cx_px) * z / s.geometry.f_px, (v - s.geometry.cy_px) * z / s.geometry.f_px, z);
+      const Eigen::Vector3d p((u - s.geometry.cx_px) * z / s.geometry.f_px,
+                              (v - s.geometry.cy_px) * z / s.geometry.f_px, z);
       t.visible_depth_m = std::max(t.visible_depth_m, -(up.dot(p) + c.height_m));
     }
   const double yz = (-c.height_m / c.z_m - up.z()) / up.y();
@@ -71,12 +72,13 @@ DamageInstance Check(const Case& c, bool expect_visible) {
   if (f.instances.empty()) return {};
   const DamageInstance& d = f.instances[0];
   const double hidden_m = c.depth_m - truth.visible_depth_m;
-  std::printf("cap %.0f mm / %.0f mm at %.1f m, pitch %.0f: visible %.1f mm (hidden %.1f), measured %.1f mm, "
-              "sigma_Z %.1f mm, e %.1f deg (truth %.1f), floor %s, bound %.1f mm, volume %.6f (upper %.6f, true %.6f)\n",
-              c.depth_m * 1000, c.radius_m * 1000, c.z_m, c.pitch_deg, truth.visible_depth_m * 1000, hidden_m * 1000,
-              d.max_depth_m * 1000, d.sigma_depth_m * 1000, d.grazing_angle_deg,
-              std::atan(truth.tan_rim) * 180 / CV_PI, d.floor_visible ? "seen" : "hidden", d.max_depth_bound_m * 1000,
-              d.volume_m3, d.volume_upper_m3, scene.TrueVolumeM3());
+  std::printf(
+      "cap %.0f mm / %.0f mm at %.1f m, pitch %.0f: visible %.1f mm (hidden %.1f), measured %.1f mm, "
+      "sigma_Z %.1f mm, e %.1f deg (truth %.1f), floor %s, bound %.1f mm, volume %.6f (upper %.6f, true %.6f)\n",
+      c.depth_m * 1000, c.radius_m * 1000, c.z_m, c.pitch_deg, truth.visible_depth_m * 1000, hidden_m * 1000,
+      d.max_depth_m * 1000, d.sigma_depth_m * 1000, d.grazing_angle_deg, std::atan(truth.tan_rim) * 180 / CV_PI,
+      d.floor_visible ? "seen" : "hidden", d.max_depth_bound_m * 1000, d.volume_m3, d.volume_upper_m3,
+      scene.TrueVolumeM3());
   // The geometry's own verdict: this cap's floor hidden by more than 10 mm, or seen.
   EXPECT_EQ(hidden_m <= 0.010, expect_visible) << "test case does not show what it is meant to";
   EXPECT_EQ(d.floor_visible, expect_visible);
@@ -125,10 +127,11 @@ DamageInstance Check(const Case& c, bool expect_visible) {
 // case −3.3 % (seen −8.8 %, area +0.7 %).
 void ExpectEstimate(const Case& c, const DamageInstance& d, double volume_tol, double depth_tol_m) {
   const double v = Scene(c).TrueVolumeM3();
-  std::printf("  estimate: depth %.1f mm (seen %.1f, true %.1f), volume %.6f (seen %.6f, true %.6f): %+.1f %% (seen %+.1f %%), "
-              "area %+.1f %%\n", d.max_depth_m * 1000, d.max_depth_seen_m * 1000, c.depth_m * 1000, d.volume_m3,
-              d.volume_seen_m3, v, 100 * (d.volume_m3 / v - 1), 100 * (d.volume_seen_m3 / v - 1),
-              100 * (d.area_m2 / Scene(c).TrueAreaM2() - 1));
+  std::printf(
+      "  estimate: depth %.1f mm (seen %.1f, true %.1f), volume %.6f (seen %.6f, true %.6f): %+.1f %% (seen %+.1f %%), "
+      "area %+.1f %%\n",
+      d.max_depth_m * 1000, d.max_depth_seen_m * 1000, c.depth_m * 1000, d.volume_m3, d.volume_seen_m3, v,
+      100 * (d.volume_m3 / v - 1), 100 * (d.volume_seen_m3 / v - 1), 100 * (d.area_m2 / Scene(c).TrueAreaM2() - 1));
   EXPECT_NEAR(d.volume_m3, v, volume_tol * v);
   EXPECT_GT(std::abs(d.volume_seen_m3 - v), volume_tol * v) << "the seen volume alone would pass";
   EXPECT_NEAR(d.max_depth_m, c.depth_m, depth_tol_m);
@@ -232,13 +235,13 @@ DamageInstance DetectPan(const Pan& pan, double* visible_depth_m) {
   EXPECT_EQ(damage.instances.size(), 1u);
   if (damage.instances.empty()) return {};
   const DamageInstance& d = damage.instances[0];
-  std::printf("pan %.0f mm / %.0f mm (floor %.0f) at %.1f m: visible %.1f, seen %.1f, estimate %.1f mm (bound %.1f), "
-              "floor %s; volume %.6f (seen %.6f, upper %.6f, true %.6f): %+.1f %% (seen %+.1f %%), area %+.1f %%\n",
-              pan.depth_m * 1000, pan.radius_m * 1000, pan.floor_radius_m * 1000, pan.z_m, f.visible_depth_m * 1000,
-              d.max_depth_seen_m * 1000, d.max_depth_m * 1000, d.max_depth_bound_m * 1000,
-              d.floor_visible ? "seen" : "hidden", d.volume_m3, d.volume_seen_m3, d.volume_upper_m3, pan.VolumeM3(),
-              100 * (d.volume_m3 / pan.VolumeM3() - 1), 100 * (d.volume_seen_m3 / pan.VolumeM3() - 1),
-              100 * (d.area_m2 / (CV_PI * pan.radius_m * pan.radius_m) - 1));
+  std::printf(
+      "pan %.0f mm / %.0f mm (floor %.0f) at %.1f m: visible %.1f, seen %.1f, estimate %.1f mm (bound %.1f), "
+      "floor %s; volume %.6f (seen %.6f, upper %.6f, true %.6f): %+.1f %% (seen %+.1f %%), area %+.1f %%\n",
+      pan.depth_m * 1000, pan.radius_m * 1000, pan.floor_radius_m * 1000, pan.z_m, f.visible_depth_m * 1000,
+      d.max_depth_seen_m * 1000, d.max_depth_m * 1000, d.max_depth_bound_m * 1000, d.floor_visible ? "seen" : "hidden",
+      d.volume_m3, d.volume_seen_m3, d.volume_upper_m3, pan.VolumeM3(), 100 * (d.volume_m3 / pan.VolumeM3() - 1),
+      100 * (d.volume_seen_m3 / pan.VolumeM3() - 1), 100 * (d.area_m2 / (CV_PI * pan.radius_m * pan.radius_m) - 1));
   return d;
 }
 
@@ -287,11 +290,11 @@ DamageInstance DetectSmoothed(const Case& c, int rows) {
   EXPECT_EQ(potholes.size(), 1u);
   if (potholes.empty()) return {};
   const DamageInstance& d = potholes[0];
-  std::printf("cap %.0f mm / %.0f mm at %.1f m, smoothed over %d rows: seen %.1f mm, floor %s, bound %.1f mm, "
-              "volume %.6f (seen %.6f, upper %.6f, true %.6f)\n",
-              c.depth_m * 1000, c.radius_m * 1000, c.z_m, rows, d.max_depth_seen_m * 1000,
-              d.floor_visible ? "seen" : "hidden", d.max_depth_bound_m * 1000, d.volume_m3, d.volume_seen_m3,
-              d.volume_upper_m3, scene.TrueVolumeM3());
+  std::printf(
+      "cap %.0f mm / %.0f mm at %.1f m, smoothed over %d rows: seen %.1f mm, floor %s, bound %.1f mm, "
+      "volume %.6f (seen %.6f, upper %.6f, true %.6f)\n",
+      c.depth_m * 1000, c.radius_m * 1000, c.z_m, rows, d.max_depth_seen_m * 1000, d.floor_visible ? "seen" : "hidden",
+      d.max_depth_bound_m * 1000, d.volume_m3, d.volume_seen_m3, d.volume_upper_m3, scene.TrueVolumeM3());
   return d;
 }
 

@@ -35,7 +35,9 @@ cv::Mat PixelAreaOnRoad(const RoadRelief& r, const RectifiedStereo& g, const Roa
 
 std::vector<cv::Rect> LabelBoxes(const cv::Mat& labels) {
   if (labels.type() != CV_16UC1) throw std::invalid_argument("LabelBoxes: labels must be CV_16U");
-  struct Box { int u0 = INT_MAX, v0 = INT_MAX, u1 = -1, v1 = -1; };
+  struct Box {
+    int u0 = INT_MAX, v0 = INT_MAX, u1 = -1, v1 = -1;
+  };
   // Bands of rows in parallel, merged afterwards (min/max: the same boxes for any split).
   constexpr int kBands = 8;
   std::vector<std::vector<Box>> band(kBands, std::vector<Box>(1));
@@ -92,9 +94,8 @@ std::vector<cv::Point> OutlineOf(const cv::Mat& labels, int id, const cv::Rect& 
   std::vector<std::vector<cv::Point>> contours;
   cv::findContours(labels(roi) == id, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE, roi.tl());
   if (contours.empty()) return {};
-  auto biggest = std::max_element(contours.begin(), contours.end(), [](const auto& a, const auto& b) {
-    return cv::contourArea(a) < cv::contourArea(b);
-  });
+  auto biggest = std::max_element(contours.begin(), contours.end(),
+                                  [](const auto& a, const auto& b) { return cv::contourArea(a) < cv::contourArea(b); });
   std::vector<cv::Point> poly;
   cv::approxPolyDP(*biggest, poly, 1.0, true);
   return poly;
@@ -378,13 +379,13 @@ void ExtendObliqueSides(cv::Mat& lab, int id, const cv::Mat& in0, const cv::Mat&
 // (views into the labels: writes go to them) and the depths the rim is found on.
 struct RimWindow {
   int id = 0;
-  double e = 1;       // row elongation at the box's centre (≥ 1)
-  int k = 1;          // rows per road unit (e rounded)
-  int band = 1;       // how far the rim may lie outside the instance, px
-  cv::Rect box;       // the instance's bounding box as segmented, in the frame
-  cv::Mat lab;        // the labels over the window (a view)
-  cv::Mat inst;       // the instance as segmented
-  cv::Mat depth;      // depth below the road, mm
+  double e = 1;   // row elongation at the box's centre (≥ 1)
+  int k = 1;      // rows per road unit (e rounded)
+  int band = 1;   // how far the rim may lie outside the instance, px
+  cv::Rect box;   // the instance's bounding box as segmented, in the frame
+  cv::Mat lab;    // the labels over the window (a view)
+  cv::Mat inst;   // the instance as segmented
+  cv::Mat depth;  // depth below the road, mm
   cv::Mat obstacle;
   cv::Mat rim_depth;  // the depth the rim is found on
   cv::Mat dist;       // outside: distance to the instance (road units)
@@ -405,8 +406,8 @@ RimWindow OpenRimWindow(cv::Mat& labels, int id, const cv::Rect& box, const Road
   const int count = cv::countNonZero(labels(box) == id);
   const int band = std::max(1, static_cast<int>(0.3 * std::sqrt(count * k / CV_PI)));
   const int pad_u = 2 * band + 1, pad_v = 2 * band / k + 1;
-  const cv::Rect roi =
-      cv::Rect(box.x - pad_u, box.y - pad_v, box.width + 2 * pad_u, box.height + 2 * pad_v) & cv::Rect({}, labels.size());
+  const cv::Rect roi = cv::Rect(box.x - pad_u, box.y - pad_v, box.width + 2 * pad_u, box.height + 2 * pad_v) &
+                       cv::Rect({}, labels.size());
   w.e = e, w.k = k, w.band = band;
   w.lab = labels(roi);  // view: writes go to `labels`
   w.inst = w.lab == id;
@@ -483,7 +484,8 @@ RimLevel FitRimLevel(const RimWindow& w, double rim_depth_m, double rim_depth_fr
     std::vector<float> res;
     for (size_t i = 0; i < ring.size(); ++i)
       if (std::isfinite(ring_raw[i]))
-        res.push_back(std::abs(ring_raw[i] - static_cast<float>(plane[0] + plane[1] * ring[i].x + plane[2] * ring[i].y)));
+        res.push_back(
+            std::abs(ring_raw[i] - static_cast<float>(plane[0] + plane[1] * ring[i].x + plane[2] * ring[i].y)));
     if (res.size() >= 20) pixel_sigma = RobustSigmaOfAbs(res);
   }
   out.floor_mm = floor_mm, out.depth99_mm = depth99_mm, out.ring_sigma = ring_sigma, out.pixel_sigma = pixel_sigma;
@@ -728,8 +730,8 @@ void ExtendToRim(cv::Mat& labels, const RoadRelief& r, double rim_depth_m, doubl
   }
 }
 
-double CoreWidthM(const cv::Mat& labels, int id, const RoadRelief& r, const cv::Mat& pixel_area_m2,
-                  double min_depth_m, cv::Rect box, double* width_px) {
+double CoreWidthM(const cv::Mat& labels, int id, const RoadRelief& r, const cv::Mat& pixel_area_m2, double min_depth_m,
+                  cv::Rect box, double* width_px) {
   if (width_px) *width_px = 0;
   cv::Rect roi = box.empty() ? cv::boundingRect(labels == id) : box;
   if (roi.empty()) return 0;
@@ -815,8 +817,8 @@ std::vector<DamageInstance> MeasureDepressions(const cv::Mat& labels, const Road
       if (!noise_px.empty()) {
         // Disparity noise as depth below the surface: a point moved along its ray by
         // ΔZ = Z²·σ_d/(f·B) changes its height by ΔZ·|n·ray|.
-        const double nr = std::abs(s.normal.x() * (u - g.cx_px) / g.f_px + s.normal.y() * (v - g.cy_px) / g.f_px +
-                                   s.normal.z());
+        const double nr =
+            std::abs(s.normal.x() * (u - g.cx_px) / g.f_px + s.normal.y() * (v - g.cy_px) / g.f_px + s.normal.z());
         c.noise_mm += 1000.0 * noise_px.at<float>(v, u) * double(z[u]) * z[u] / fb * nr;
       }
       if (std::isfinite(d[u])) {
@@ -867,12 +869,12 @@ std::vector<DamageInstance> MeasureDepressions(const cv::Mat& labels, const Road
     d.max_diameter_m = dmax;
     const bool measurable = std::isfinite(d.max_depth_m) && d.max_depth_m >= o.pothole_min_depth_m &&
                             d.max_depth_m >= o.pothole_min_depth_sigma * d.sigma_depth_m;
-    const bool compact = d.max_diameter_m > 0 && d.area_m2 >= o.pothole_min_compactness * CV_PI / 4 *
-                                                                  d.max_diameter_m * d.max_diameter_m;
+    const bool compact = d.max_diameter_m > 0 &&
+                         d.area_m2 >= o.pothole_min_compactness * CV_PI / 4 * d.max_diameter_m * d.max_diameter_m;
     double core_px = 0;
-    const bool shaped = measurable && compact && d.equivalent_diameter_m >= o.pothole_min_diameter_m &&
-                        CoreWidthM(labels, id, r, area, 0.5 * d.max_depth_m, boxes[id], &core_px) >=
-                            o.pothole_min_core_width_m;
+    const bool shaped =
+        measurable && compact && d.equivalent_diameter_m >= o.pothole_min_diameter_m &&
+        CoreWidthM(labels, id, r, area, 0.5 * d.max_depth_m, boxes[id], &core_px) >= o.pothole_min_core_width_m;
     bool confirmed = 1000.0 * d.max_depth_m >= o.pothole_min_noise_sigma * c.noise_mm / c.pixels;
     // Deeper than the noise at its own scale: a depression much wider than SGM's wrong-winner
     // patches is not one of them (scale_noise.h). Only where the per-pixel rule does not decide.

@@ -47,18 +47,16 @@ void ExtendToRim(cv::Mat& labels, const RoadRelief& relief, double rim_depth_m, 
 /// instance count for area and take the instance's mean depth for the volume.
 /// Type: pothole when max depth ≥ pothole_min_depth_m and ≥ pothole_min_depth_sigma · σ_Z, equivalent diameter ≥
 /// pothole_min_diameter_m, area ≥ pothole_min_compactness · π/4 · max diameter² and the
-/// half-max-depth core at least pothole_min_core_width_m wide (CoreWidthM), otherwise other. Severity is not graded here.
-/// `noise_px` (optional CV_32F, the road's local disparity noise σ in px, e.g. LocalReliefNoise of
-/// the transformed disparity): a pothole's max depth must also reach pothole_min_noise_sigma times
-/// its mean over the instance as depth below the surface (σ·Z²/(f·B)·|n·ray|), or, failing that,
-/// at the depression's own scale (MeasureScaleNoise over a window as wide as the square inscribed
-/// in its core, at least kMinScaleWindowPx): its deepest window mean pothole_min_noise_sigma
-/// times the road's window-mean σ around it and (pothole_min_spike_ratio > 0) that ratio times
-/// their spike_quantile above the road.
-/// `volume_depth_below_mm` (optional, CV_32F, NaN invalid): the depth the volume sums instead of
-/// the relief's (the disparity stage's sharp image, SharpDepthBelowMm: the smooth refinement
-/// window makes the floor beside a wall shallower and spreads the wall beyond the outline); where
-/// it is NaN the relief's depth is summed.
+/// half-max-depth core at least pothole_min_core_width_m wide (CoreWidthM), otherwise other. Severity is not graded
+/// here. `noise_px` (optional CV_32F, the road's local disparity noise σ in px, e.g. LocalReliefNoise of the
+/// transformed disparity): a pothole's max depth must also reach pothole_min_noise_sigma times its mean over the
+/// instance as depth below the surface (σ·Z²/(f·B)·|n·ray|), or, failing that, at the depression's own scale
+/// (MeasureScaleNoise over a window as wide as the square inscribed in its core, at least kMinScaleWindowPx): its
+/// deepest window mean pothole_min_noise_sigma times the road's window-mean σ around it and (pothole_min_spike_ratio >
+/// 0) that ratio times their spike_quantile above the road. `volume_depth_below_mm` (optional, CV_32F, NaN invalid):
+/// the depth the volume sums instead of the relief's (the disparity stage's sharp image, SharpDepthBelowMm: the smooth
+/// refinement window makes the floor beside a wall shallower and spreads the wall beyond the outline); where it is NaN
+/// the relief's depth is summed.
 std::vector<DamageInstance> MeasureDepressions(const cv::Mat& labels, const RoadRelief& relief,
                                                const RectifiedStereo& geometry, const RoadSurface& surface,
                                                const MeasureOptions& options, const cv::Mat& noise_px = cv::Mat(),

@@ -14,7 +14,8 @@ cv::Mat SharpDepthBelowMm(const cv::Mat& sharp, const cv::Mat& disparity_px, con
     throw std::invalid_argument("sharp disparity: CV_32F of the disparity's size expected");
   if (labels.type() != CV_16UC1 || labels.size() != sharp.size() ||
       (!correction_mm.empty() && (correction_mm.type() != CV_32FC1 || correction_mm.size() != sharp.size())))
-    throw std::invalid_argument("sharp disparity: labels (CV_16U) and correction (CV_32F) of the disparity's size expected");
+    throw std::invalid_argument(
+        "sharp disparity: labels (CV_16U) and correction (CV_32F) of the disparity's size expected");
   cv::Mat out(sharp.size(), CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
   const double fb = g.f_px * g.baseline_m;
   const std::vector<cv::Rect> boxes = LabelBoxes(labels);

@@ -31,10 +31,10 @@ TEST(StrongEdgeMask, Nominal) {
   const cv::Mat m = StrongEdgeMask(img, 9.0, 6);
   ASSERT_EQ(m.type(), CV_8UC1);
   ASSERT_EQ(m.size(), img.size());
-  EXPECT_EQ(m.at<uchar>(120, 100), 255);  // left edge of the line
-  EXPECT_EQ(m.at<uchar>(120, 139), 255);  // right edge
-  EXPECT_EQ(m.at<uchar>(120, 94), 255);   // within the margin
-  EXPECT_EQ(m.at<uchar>(120, 120), 0);    // the uniform paint itself
+  EXPECT_EQ(m.at<uchar>(120, 100), 255);                          // left edge of the line
+  EXPECT_EQ(m.at<uchar>(120, 139), 255);                          // right edge
+  EXPECT_EQ(m.at<uchar>(120, 94), 255);                           // within the margin
+  EXPECT_EQ(m.at<uchar>(120, 120), 0);                            // the uniform paint itself
   EXPECT_EQ(cv::countNonZero(m(cv::Rect(160, 0, 240, 240))), 0);  // texture and the bowl
   EXPECT_EQ(cv::countNonZero(m(cv::Rect(0, 0, 80, 240))), 0);
 }

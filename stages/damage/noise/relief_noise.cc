@@ -25,7 +25,8 @@ cv::Mat NoiseOf(const cv::Mat& value, const cv::Mat& valid, double level, int ce
   if (value.type() != CV_32FC1 || valid.type() != CV_8UC1 || value.size() != valid.size())
     throw std::invalid_argument("LocalReliefNoise: value must be CV_32F with a CV_8U mask of the same size");
   if (cell < 4 || !(floor_sigma > 0) || !(max_ratio > 0) || !(quantile > 0 && quantile < 1))
-    throw std::invalid_argument("LocalReliefNoise: cell_px >= 4, floor_sigma > 0, max_ratio > 0, 0 < quantile < 1 needed");
+    throw std::invalid_argument(
+        "LocalReliefNoise: cell_px >= 4, floor_sigma > 0, max_ratio > 0, 0 < quantile < 1 needed");
   const bool median = quantile == 0.5;
   const int gw = (value.cols + cell - 1) / cell, gh = (value.rows + cell - 1) / cell;
   const float nan = std::numeric_limits<float>::quiet_NaN();
@@ -76,8 +77,8 @@ cv::Mat LocalReliefNoise(const cv::Mat& value, const cv::Mat& valid, double leve
   return NoiseOf<false>(value, valid, level, cell, floor_sigma, max_ratio, quantile);
 }
 
-cv::Mat LocalReliefNoiseBelow(const cv::Mat& value, const cv::Mat& valid, double level, int cell_px,
-                              double floor_sigma, double max_ratio) {
+cv::Mat LocalReliefNoiseBelow(const cv::Mat& value, const cv::Mat& valid, double level, int cell_px, double floor_sigma,
+                              double max_ratio) {
   return NoiseOf<true>(value, valid, -level, cell_px, floor_sigma, max_ratio, 0.5);
 }
 

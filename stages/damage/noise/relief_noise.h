@@ -32,8 +32,8 @@ cv::Mat LocalReliefNoise(const cv::Mat& value, const cv::Mat& valid, double leve
 
 /// LocalReliefNoise of the samples below `level`: the same as LocalReliefNoise(−value, valid,
 /// −level, cell_px, floor_sigma, max_ratio), without the negated copy of the image.
-cv::Mat LocalReliefNoiseBelow(const cv::Mat& value, const cv::Mat& valid, double level, int cell_px,
-                              double floor_sigma, double max_ratio = std::numeric_limits<double>::infinity());
+cv::Mat LocalReliefNoiseBelow(const cv::Mat& value, const cv::Mat& valid, double level, int cell_px, double floor_sigma,
+                              double max_ratio = std::numeric_limits<double>::infinity());
 
 /// How far the road's matching errors reach: the `quantile` (e.g. 0.999) of the upward
 /// deviations (x − level) per cell, as LocalReliefNoise otherwise. SGM's wrong winners (a

@@ -52,9 +52,9 @@ TEST(ReliefNoise, Spikes) {
   const cv::Mat noise = LocalReliefNoise(value, valid, 30.0, 96, 0.05, 40.0);
   const cv::Mat spikes = LocalReliefSpikes(value, valid, 30.0, 96, 0.05, 40.0, 0.999);
   EXPECT_NEAR(noise.at<float>(240, 100), 0.1, 0.01);
-  EXPECT_NEAR(noise.at<float>(240, 650), 0.1, 0.02);          // the median hardly moves
-  EXPECT_NEAR(spikes.at<float>(240, 100), 0.32, 0.06);         // clean: the Gaussian tail
-  EXPECT_GT(spikes.at<float>(240, 650), 0.8);                  // the patches' height and their noise
+  EXPECT_NEAR(noise.at<float>(240, 650), 0.1, 0.02);    // the median hardly moves
+  EXPECT_NEAR(spikes.at<float>(240, 100), 0.32, 0.06);  // clean: the Gaussian tail
+  EXPECT_GT(spikes.at<float>(240, 650), 0.8);           // the patches' height and their noise
   EXPECT_LT(spikes.at<float>(240, 650), 1.2);
   // The default quantile is the median path, unchanged.
   const cv::Mat median = LocalReliefNoise(value, valid, 30.0, 96, 0.05, 40.0, 0.5);

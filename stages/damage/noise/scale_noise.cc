@@ -24,7 +24,8 @@ ScaleNoise MeasureScaleNoise(const cv::Mat& depth_below_mm, const cv::Mat& road,
   if (window_px < 1 || box.empty() || margin_px < 0 || !(spike_quantile > 0 && spike_quantile < 1) ||
       !(floor_sigma_mm >= 0))
     throw std::invalid_argument(
-        "MeasureScaleNoise: window_px >= 1, a non-empty box, margin_px >= 0, 0 < spike_quantile < 1, floor >= 0 needed");
+        "MeasureScaleNoise: window_px >= 1, a non-empty box, margin_px >= 0, 0 < spike_quantile < 1, floor >= 0 "
+        "needed");
   const double nan = std::numeric_limits<double>::quiet_NaN();
   ScaleNoise out;
   out.window_px = window_px;
@@ -51,7 +52,8 @@ ScaleNoise MeasureScaleNoise(const cv::Mat& depth_below_mm, const cv::Mat& road,
   const float min_count = 0.5f * window_px * window_px;
   const cv::Mat own = labels(roi) == id;
   cv::Mat own_grown;
-  cv::dilate(own, own_grown, cv::getStructuringElement(cv::MORPH_RECT, {2 * (window_px / 2) + 1, 2 * (window_px / 2) + 1}));
+  cv::dilate(own, own_grown,
+             cv::getStructuringElement(cv::MORPH_RECT, {2 * (window_px / 2) + 1, 2 * (window_px / 2) + 1}));
   double deepest = -std::numeric_limits<double>::infinity();
   std::vector<float> up, down;
   for (int v = 0; v < roi.height; ++v) {
@@ -66,8 +68,10 @@ ScaleNoise MeasureScaleNoise(const cv::Mat& depth_below_mm, const cv::Mat& road,
       if (o[u]) {
         deepest = std::max(deepest, double(mean));
       } else if (!g[u] && mv[u] && ((u | v) & 1) == 0) {  // every second pixel: ample samples
-        if (mean > 0) down.push_back(mean);
-        else if (mean < 0) up.push_back(-mean);
+        if (mean > 0)
+          down.push_back(mean);
+        else if (mean < 0)
+          up.push_back(-mean);
       }
     }
   }

@@ -15,7 +15,8 @@ namespace rs {
 struct ScaleNoise {
   int window_px = 0;
   double depth_mm = 0;  ///< the depression's deepest window mean (over its own pixels)
-  double sigma_mm = 0;  ///< min(σ above, 2·σ below the road) of the window means around it (two-sided, as TwoSidedReliefNoise)
+  double sigma_mm =
+      0;  ///< min(σ above, 2·σ below the road) of the window means around it (two-sided, as TwoSidedReliefNoise)
   double spike_mm = 0;  ///< the `spike_quantile` of the window means above the road around it (as LocalReliefSpikes)
   int samples = 0;      ///< road window means the spreads were taken from (above the road + below it)
 };

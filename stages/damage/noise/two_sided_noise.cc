@@ -41,7 +41,8 @@ cv::Mat TwoSidedReliefNoise(const cv::Mat& noise_up, const cv::Mat& value, const
     if (b.empty()) continue;
     const int x0 = std::max(0, (b.x / cell_px - 2) * cell_px), y0 = std::max(0, (b.y / cell_px - 2) * cell_px);
     const cv::Rect roi = cv::Rect(x0, y0, ((b.x + b.width - 1) / cell_px + 3) * cell_px - x0,
-                                  ((b.y + b.height - 1) / cell_px + 3) * cell_px - y0) & frame;
+                                  ((b.y + b.height - 1) / cell_px + 3) * cell_px - y0) &
+                         frame;
     const cv::Mat own = instances(roi) == id;
     const cv::Mat own_down =
         LocalReliefNoiseBelow(value(roi), valid(roi) & ~own, level, cell_px, floor_sigma, max_ratio);

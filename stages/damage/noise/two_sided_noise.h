@@ -30,7 +30,7 @@ inline constexpr double kMatchingNoiseMaxAsymmetry = 2.0;
 /// Throws std::invalid_argument as LocalReliefNoise, when noise_up or instances differ from value
 /// in size or type, or when max_asymmetry < 1.
 cv::Mat TwoSidedReliefNoise(const cv::Mat& noise_up, const cv::Mat& value, const cv::Mat& valid, double level,
-                            int cell_px, double floor_sigma, double max_ratio, double max_asymmetry = kMatchingNoiseMaxAsymmetry,
-                            const cv::Mat& instances = cv::Mat());
+                            int cell_px, double floor_sigma, double max_ratio,
+                            double max_asymmetry = kMatchingNoiseMaxAsymmetry, const cv::Mat& instances = cv::Mat());
 
 }  // namespace rs

@@ -30,8 +30,8 @@ TEST(TwoSidedReliefNoise, Nominal) {
   const cv::Mat s = TwoSidedReliefNoise(up, value, valid, 30.0, 96, floor_sigma, max_ratio);
   ASSERT_EQ(s.type(), CV_32FC1);
   ASSERT_EQ(s.size(), value.size());
-  EXPECT_GT(up.at<float>(240, 620), 0.4);        // the rise counted as noise one-sided
-  EXPECT_LE(s.at<float>(240, 620), 2 * 0.1 * 1.1);  // two-sided: at most twice the spread below
+  EXPECT_GT(up.at<float>(240, 620), 0.4);                    // the rise counted as noise one-sided
+  EXPECT_LE(s.at<float>(240, 620), 2 * 0.1 * 1.1);           // two-sided: at most twice the spread below
   EXPECT_EQ(s.at<float>(240, 380), up.at<float>(240, 380));  // plain road: unchanged
   EXPECT_NEAR(s.at<float>(240, 380), 0.1, 0.01);
   EXPECT_EQ(s.at<float>(240, 200), up.at<float>(240, 200));  // the bowl: only the tail below grows
@@ -66,7 +66,7 @@ TEST(TwoSidedReliefNoise, OwnWallsAreNotNoiseBelow) {
   EXPECT_GT(with_bowl.at<float>(240, 620), 0.3);  // the bowl's walls lifted the cap
   EXPECT_LE(s.at<float>(240, 620), 2 * 0.1 * 1.1);
   EXPECT_EQ(s.at<float>(300, 660), with_bowl.at<float>(300, 660));  // off the instance: unchanged
-  EXPECT_NEAR(s.at<float>(240, 200), 0.1, 0.01);                     // plain road
+  EXPECT_NEAR(s.at<float>(240, 200), 0.1, 0.01);                    // plain road
   EXPECT_EQ(s.at<float>(240, 200), up.at<float>(240, 200));
   EXPECT_THROW(TwoSidedReliefNoise(up, value, valid, 30.0, 96, floor_sigma, max_ratio, 2.0, cv::Mat(10, 10, CV_16U)),
                std::invalid_argument);

@@ -32,8 +32,10 @@ cv::Mat RenderOverlay(const cv::Mat& left, const cv::Mat& labels, const std::vec
   if (left.empty() || left.depth() != CV_8U || labels.size() != left.size())
     throw std::invalid_argument("RenderOverlay: 8-bit image and labels of the same size required");
   cv::Mat out;
-  if (left.channels() == 1) cv::cvtColor(left, out, cv::COLOR_GRAY2BGR);
-  else out = left.clone();
+  if (left.channels() == 1)
+    cv::cvtColor(left, out, cv::COLOR_GRAY2BGR);
+  else
+    out = left.clone();
   const int thick = std::max(2, left.cols / 500);
   const double font = std::max(0.5, left.cols / 1600.0);
   const std::vector<cv::Rect> boxes = LabelBoxes(labels);

@@ -25,8 +25,10 @@ void FillEmptyCellsFromNeighbours(cv::Mat* grid) {
             const float q = grid->at<float>(yy, xx);
             if (std::isfinite(q)) sum += q, ++n;
           }
-        if (n) next.at<float>(y, x) = static_cast<float>(sum / n);
-        else missing = true;
+        if (n)
+          next.at<float>(y, x) = static_cast<float>(sum / n);
+        else
+          missing = true;
       }
     *grid = next;
     if (!missing || !any) break;

@@ -16,9 +16,9 @@ void FillEmptyCellsFromNeighbours(cv::Mat* grid);
 
 /// Labels the regions of a CV_32F grid (NaN = empty) in which 4-neighbours are joined when their
 /// values differ by less than `max_step` and no two cells in line across the link do (a step whose
-/// face holds a cell; the cells right beside a step may so form a thin region): a smooth surface is one region, a step (a kerb up to the pavement) or an empty band
-/// (an obstacle) separates two. Returns CV_32S labels, 0 on empty
-/// cells, regions numbered from 1; `*count` (optional) = number of regions.
+/// face holds a cell; the cells right beside a step may so form a thin region): a smooth surface is one region, a step
+/// (a kerb up to the pavement) or an empty band (an obstacle) separates two. Returns CV_32S labels, 0 on empty cells,
+/// regions numbered from 1; `*count` (optional) = number of regions.
 cv::Mat LabelSmoothRegions(const cv::Mat& grid, float max_step, int* count = nullptr);
 
 }  // namespace rs

@@ -30,8 +30,8 @@ std::vector<double> RoadRowElongation(int rows, const RectifiedStereo& g, const 
   };
   for (int v = 0; v < rows; ++v) {
     Eigen::Vector3d up, down, left, right;
-    if (!on_road(g.cx_px, v - 0.5, &up) || !on_road(g.cx_px, v + 0.5, &down) ||
-        !on_road(g.cx_px - 0.5, v, &left) || !on_road(g.cx_px + 0.5, v, &right))
+    if (!on_road(g.cx_px, v - 0.5, &up) || !on_road(g.cx_px, v + 0.5, &down) || !on_road(g.cx_px - 0.5, v, &left) ||
+        !on_road(g.cx_px + 0.5, v, &right))
       continue;
     const double across = (right - left).norm();
     if (!(across > 0)) continue;
@@ -65,12 +65,17 @@ double SmoothReliefRows(RoadRelief& r, const std::vector<cv::Size>& windows, int
   });
   // Bands of rows sharing a window. Valid-pixel counts are summed on the 0/255 mask itself
   // (integer sums: exactly 255 × count, divided back below).
-  struct Band { int v0, v1; cv::Size k; };
+  struct Band {
+    int v0, v1;
+    cv::Size k;
+  };
   std::vector<Band> bands;
   for (int v = 0; v < rows; ++v) {
     const cv::Size k = windows[row0 + v];
-    if (bands.empty() || bands.back().k != k) bands.push_back({v, v + 1, k});
-    else bands.back().v1 = v + 1;
+    if (bands.empty() || bands.back().k != k)
+      bands.push_back({v, v + 1, k});
+    else
+      bands.back().v1 = v + 1;
   }
   cv::Mat wsum, dsum, tsum;
   const cv::Mat* src[3] = {&r.valid_mask, &depth0, &r.transformed_disparity_px};

@@ -15,9 +15,7 @@ constexpr double kDeg = CV_PI / 180.0;
 
 // Road normal ("up", towards the camera) in the camera frame of a camera pitched `pitch_deg`
 // below the horizon (x right, y down, z forward).
-Eigen::Vector3d Up(double pitch_deg) {
-  return {0.0, -std::cos(pitch_deg * kDeg), -std::sin(pitch_deg * kDeg)};
-}
+Eigen::Vector3d Up(double pitch_deg) { return {0.0, -std::cos(pitch_deg * kDeg), -std::sin(pitch_deg * kDeg)}; }
 
 // Relief of `value` with every pixel valid except a 3×3 hole, depth = 10 × value (mm).
 RoadRelief MakeRelief(const cv::Mat& value) {
@@ -53,7 +51,7 @@ TEST(ReliefSmooth, RowElongationOfACarAndANadirCamera) {
     EXPECT_NEAR(car[v], 1.0 / (std::sin(phi) * std::sqrt(1 + y * y)), 0.01 * car[v]) << "row " << v;
   }
   EXPECT_NEAR(car[360], 1.0 / std::sin(15 * kDeg), 0.02);  // 3.86 at the principal row
-  EXPECT_EQ(car[0], 1.0);  // above the horizon (15° up from the axis: row 92): no road
+  EXPECT_EQ(car[0], 1.0);                                  // above the horizon (15° up from the axis: row 92): no road
   const std::vector<double> nadir = RoadRowElongation(720, g, Up(90));
   for (const int v : {0, 360, 719}) EXPECT_NEAR(nadir[v], 1.0, 1e-9);
 }
@@ -109,7 +107,7 @@ TEST(ReliefSmooth, StepsStandingOutOfTheNoiseAreKept) {
   const std::vector<cv::Size> windows(120, cv::Size(7, 7));
   RoadRelief r = MakeRelief(value);
   const double sigma = SmoothReliefRows(r, windows, 0, 8.0);
-  EXPECT_NEAR(sigma, 0.05, 0.01);  // |raw − mean of 49| has σ·√(48/49)
+  EXPECT_NEAR(sigma, 0.05, 0.01);           // |raw − mean of 49| has σ·√(48/49)
   for (const int u : {98, 99, 100, 101}) {  // at the step: its own value
     EXPECT_EQ(r.transformed_disparity_px.at<float>(60, u), value.at<float>(60, u));
     EXPECT_EQ(r.depth_below_mm.at<float>(60, u), 10 * value.at<float>(60, u));

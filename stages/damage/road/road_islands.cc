@@ -69,8 +69,10 @@ int RemoveIslandLabels(cv::Mat& labels, const cv::Mat& islands, const cv::Mat& r
     for (int u = 0; u < labels.cols; ++u) {
       if (!l[u]) continue;
       max_id = std::max(max_id, int(l[u]));
-      if (is[u]) ++on_island[l[u]];
-      else if (r[u]) ++on_road[l[u]];
+      if (is[u])
+        ++on_island[l[u]];
+      else if (r[u])
+        ++on_road[l[u]];
     }
   }
   std::vector<uchar> drop(max_id + 1, 0);

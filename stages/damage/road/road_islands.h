@@ -1,8 +1,8 @@
 #pragma once
 // Road that is not connected to the road: islands of the road mask (valid disparity, not above
 // the road) enclosed by obstacle and unmatched pixels. On an untextured obstacle (a parked car's
-// body) the matcher returns disparities tens of pixels off; most of them land above the road (obstacle) or far beyond it (out of range), but
-// scattered patches land within the road band and, measured against the road model, read as
+// body) the matcher returns disparities tens of pixels off; most of them land above the road (obstacle) or far beyond
+// it (out of range), but scattered patches land within the road band and, measured against the road model, read as
 // 70–950 mm deep "depressions" on the car. A real depression is part of the road surface: the
 // road around it continues over metres.
 

@@ -186,8 +186,14 @@ RoadSurface DominantPlane(const std::vector<Eigen::Vector3d>& pts, const RoadMod
 class QuadraticRoadFit {
  public:
   QuadraticRoadFit(const std::vector<Eigen::Vector3d>& pts, RoadSurface& s, const RoadModelOptions& o)
-      : s_(s), o_(o), mono(pts.size()), h(pts.size()), obstacle(pts.size(), 0), w(pts.size(), 1.0),
-        res(pts.size()), sigma(o.min_noise_m) {
+      : s_(s),
+        o_(o),
+        mono(pts.size()),
+        h(pts.size()),
+        obstacle(pts.size(), 0),
+        w(pts.size(), 1.0),
+        res(pts.size()),
+        sigma(o.min_noise_m) {
     // The monomials of each sample's plane coordinates, computed once for every IRLS pass (built
     // in a temporary each time, they went through the stack: store-forwarding stalls).
     for (size_t i = 0; i < pts.size(); ++i) {
@@ -248,7 +254,10 @@ class QuadraticRoadFit {
     // non-convexity); the second round shrinks to the data's own spread.
     sigma = std::max(round == 0 ? o_.ransac_inlier_m : o_.min_noise_m, absr.empty() ? kNaN : RobustSigmaOfAbs(absr));
     for (size_t i = 0; i < h.size(); ++i) {
-      if (obstacle[i] || offroad[i]) { w[i] = 0; continue; }
+      if (obstacle[i] || offroad[i]) {
+        w[i] = 0;
+        continue;
+      }
       const double x = res[i] / (kTukeyC * sigma);
       w[i] = std::abs(x) < 1 ? (1 - x * x) * (1 - x * x) : 0.0;
     }
@@ -286,7 +295,9 @@ void RefitMainRegion(const RoadSamples& rs, QuadraticRoadFit& fit, std::vector<c
   std::vector<int> area(n_regions, 0);
   std::vector<double> weight(n_regions, 0.0);
   for (size_t i = 0; i < pts.size(); ++i)
-    if (!fit.obstacle[i]) ++area[labels.at<int>(cell[i] / gw, cell[i] % gw)], weight[labels.at<int>(cell[i] / gw, cell[i] % gw)] += fit.w[i];
+    if (!fit.obstacle[i])
+      ++area[labels.at<int>(cell[i] / gw, cell[i] % gw)],
+          weight[labels.at<int>(cell[i] / gw, cell[i] % gw)] += fit.w[i];
   int main_region = 1;
   for (int k = 2; k < n_regions; ++k)
     if (area[k] > area[main_region]) main_region = k;
@@ -423,8 +434,8 @@ LocalCorrection ComputeLocalCorrection(const cv::Mat& depth, const cv::Mat& obst
 // Applies the correction `corr` to the uncorrected relief `r`, whose pixel (0, 0) is image
 // pixel `at` (r, disparity_px and corr all of one size).
 // One pixel of ApplyCorrection (x, y: the ray's (u − cx)/f, (v − cy)/f; n: the plane normal).
-inline void CorrectPixel(double x, double y, double nx, double ny, double nz, double fb, double delta, float c,
-                         float d, uchar valid, float* td, float* db, float* rz) {
+inline void CorrectPixel(double x, double y, double nx, double ny, double nz, double fb, double delta, float c, float d,
+                         uchar valid, float* td, float* db, float* rz) {
   if (!std::isfinite(*rz)) return;
   // Height of Z·ray above the plane changes by (n·ray) per metre of Z: lowering the road
   // by c moves its ray intersection ΔZ = −c / (n·ray) further.
@@ -504,7 +515,8 @@ void ApplyCorrection(RoadRelief& r, const cv::Mat& corr, const cv::Mat& disparit
 }
 
 // The relief smoothing's window per image row (relief_smooth.h).
-std::vector<cv::Size> SmoothWindows(int rows, const RectifiedStereo& g, const RoadSurface& s, const RoadModelOptions& o) {
+std::vector<cv::Size> SmoothWindows(int rows, const RectifiedStereo& g, const RoadSurface& s,
+                                    const RoadModelOptions& o) {
   return ReliefSmoothWindows(rows, g, s.normal, o.relief_smooth_px, o.relief_smooth_ground);
 }
 
@@ -645,8 +657,7 @@ RoadRelief EvaluateRect(const cv::Mat& disparity_px, const RectifiedStereo& g, c
     uchar* va = r.valid_mask.ptr<uchar>(v);
     const double y = (v + roi.y - g.cy_px) / g.f_px;
     int u = 0;
-    for (; u + 4 <= size.width; u += 4)
-      EvaluatePixels4(k, &xs[u], y, d + u, td + u, db + u, rz + u, ob + u, va + u);
+    for (; u + 4 <= size.width; u += 4) EvaluatePixels4(k, &xs[u], y, d + u, td + u, db + u, rz + u, ob + u, va + u);
     for (; u < size.width; ++u) EvaluatePixel(k, xs[u], y, d[u], td + u, db + u, rz + u, ob + u, va + u);
   });
   return r;  // correction_mm: set by FinishRoadRelief (zeros when the local correction is off)
@@ -691,7 +702,8 @@ void RefineRoadRelief(RoadRelief& r, const RoadRelief& evaluated, const cv::Mat&
   if (o.local_cell_px <= 0) return;
   if (evaluated.depth_below_mm.size() != disparity_px.size() || r.correction_grid_mm.empty() ||
       (!exclude.empty() && (exclude.type() != CV_8UC1 || exclude.size() != disparity_px.size())))
-    throw std::invalid_argument("RefineRoadRelief: needs a FinishRoadRelief result, its evaluation and masks of its size");
+    throw std::invalid_argument(
+        "RefineRoadRelief: needs a FinishRoadRelief result, its evaluation and masks of its size");
   const LocalCorrection c = ComputeLocalCorrection(evaluated.depth_below_mm, r.obstacle_mask, exclude, s, o);
   // Only pixels whose interpolation stencil holds a changed grid node change; each such region
   // is corrected again from the evaluation and smoothed with a margin of the smoothing window,
@@ -734,6 +746,5 @@ RoadRelief ComputeRoadRelief(const cv::Mat& disparity_px, const RectifiedStereo&
                              const RoadModelOptions& o, const cv::Mat& exclude) {
   return FinishRoadRelief(EvaluateRoadModel(disparity_px, g, s, o), disparity_px, g, s, o, exclude);
 }
-
 
 }  // namespace rs

@@ -22,13 +22,13 @@ namespace rs {
 struct RoadSurface {
   Eigen::Vector3d origin_m = Eigen::Vector3d::Zero();
   Eigen::Vector3d e1 = Eigen::Vector3d::UnitX(), e2 = Eigen::Vector3d::UnitZ(), normal = -Eigen::Vector3d::UnitY();
-  double scale_m = 1;                        ///< L
+  double scale_m = 1;  ///< L
   Eigen::Matrix<double, 6, 1> coeffs = Eigen::Matrix<double, 6, 1>::Zero();
-  double residual_sigma_m = 0;               ///< robust σ of road residuals
-  double camera_height_m = 0;                ///< distance of the camera centre from the plane
-  int points_used = 0;                       ///< 3D samples in the fit
-  int inliers = 0;                           ///< samples with non-zero final weight
-  int obstacle_points = 0;                   ///< samples removed as obstacles
+  double residual_sigma_m = 0;  ///< robust σ of road residuals
+  double camera_height_m = 0;   ///< distance of the camera centre from the plane
+  int points_used = 0;          ///< 3D samples in the fit
+  int inliers = 0;              ///< samples with non-zero final weight
+  int obstacle_points = 0;      ///< samples removed as obstacles
 
   /// Road height q at plane coordinates of P, minus P's height: > 0 below the road.
   double DepthBelow(const Eigen::Vector3d& p_cam) const;
@@ -73,9 +73,8 @@ struct RoadRelief {
 /// obstacles excluded; twice, the second band ±3× the first pass' spread), empty cells filled from
 /// their neighbours, 3×3 smoothed, bilinearly interpolated.
 /// `exclude` (optional CV_8U, non-zero = known damage) is left out of the local correction.
-RoadRelief ComputeRoadRelief(const cv::Mat& disparity_px, const RectifiedStereo& geometry,
-                             const RoadSurface& surface, const RoadModelOptions& options,
-                             const cv::Mat& exclude = cv::Mat());
+RoadRelief ComputeRoadRelief(const cv::Mat& disparity_px, const RectifiedStereo& geometry, const RoadSurface& surface,
+                             const RoadModelOptions& options, const cv::Mat& exclude = cv::Mat());
 
 /// ComputeRoadRelief in two steps, so a second pass with other `exclude` (DetectDamage's
 /// recomputation without the found depressions) reuses the per-pixel evaluation:
@@ -83,8 +82,8 @@ RoadRelief ComputeRoadRelief(const cv::Mat& disparity_px, const RectifiedStereo&
 /// correction_mm left empty);
 /// FinishRoadRelief = local correction and smoothing applied to it (`evaluated` unchanged; the
 /// result shares its masks).
-RoadRelief EvaluateRoadModel(const cv::Mat& disparity_px, const RectifiedStereo& geometry,
-                             const RoadSurface& surface, const RoadModelOptions& options);
+RoadRelief EvaluateRoadModel(const cv::Mat& disparity_px, const RectifiedStereo& geometry, const RoadSurface& surface,
+                             const RoadModelOptions& options);
 RoadRelief FinishRoadRelief(const RoadRelief& evaluated, const cv::Mat& disparity_px, const RectifiedStereo& geometry,
                             const RoadSurface& surface, const RoadModelOptions& options,
                             const cv::Mat& exclude = cv::Mat());

@@ -139,11 +139,12 @@ TEST(RoadSurface, EvaluateMatchesPixelReference) {
         obstacles += obstacle;
         same = same && std::abs(r.depth_below_mm.at<float>(v, u) - 1000 * below) <= 1e-3 &&
                (r.obstacle_mask.at<uchar>(v, u) != 0) == obstacle &&
-               std::abs(r.transformed_disparity_px.at<float>(v, u) - std::max(1e-3, dd - fb / z_road + o.delta_px)) <= 1e-4;
+               std::abs(r.transformed_disparity_px.at<float>(v, u) - std::max(1e-3, dd - fb / z_road + o.delta_px)) <=
+                   1e-4;
       } else {
         ++invalid;
-        same = same && r.transformed_disparity_px.at<float>(v, u) == 0 && std::isnan(r.depth_below_mm.at<float>(v, u)) &&
-               r.obstacle_mask.at<uchar>(v, u) == 0;
+        same = same && r.transformed_disparity_px.at<float>(v, u) == 0 &&
+               std::isnan(r.depth_below_mm.at<float>(v, u)) && r.obstacle_mask.at<uchar>(v, u) == 0;
       }
       bad += !same;
     }
@@ -169,7 +170,10 @@ TEST(RoadSurface, LocalCorrectionFollowsARiseOffTheQuadratic) {
   const cv::Mat flat = scene.Render();
   const double th = scene.pitch_deg * CV_PI / 180, H = scene.height_m, fb = g.f_px * g.baseline_m;
   const Eigen::Vector3d up(0, -std::cos(th), -std::sin(th));
-  const auto rise_m = [](double x_m) { const double q = std::clamp((x_m - 0.8) / 0.6, 0.0, 1.0); return 0.03 * q * q; };
+  const auto rise_m = [](double x_m) {
+    const double q = std::clamp((x_m - 0.8) / 0.6, 0.0, 1.0);
+    return 0.03 * q * q;
+  };
   // Every surface point raised by the rise at its lateral position (the pothole moves with it).
   cv::Mat d = flat.clone();
   cv::Mat on_rise(d.size(), CV_8U, cv::Scalar(0));
@@ -188,7 +192,8 @@ TEST(RoadSurface, LocalCorrectionFollowsARiseOffTheQuadratic) {
   std::vector<float> below;
   for (int v = 0; v < d.rows; v += 2)
     for (int u = 0; u < d.cols; u += 2)
-      if (on_rise.at<uchar>(v, u) && !f.labels.at<uint16_t>(v, u) && std::isfinite(f.relief.depth_below_mm.at<float>(v, u)))
+      if (on_rise.at<uchar>(v, u) && !f.labels.at<uint16_t>(v, u) &&
+          std::isfinite(f.relief.depth_below_mm.at<float>(v, u)))
         below.push_back(std::abs(f.relief.depth_below_mm.at<float>(v, u)));
   ASSERT_GT(below.size(), 1000u);
   std::nth_element(below.begin(), below.begin() + below.size() / 2, below.end());

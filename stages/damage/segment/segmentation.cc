@@ -140,10 +140,8 @@ void SnapRoiToSuperpixels(cv::Mat& mask, const cv::Mat& z, const cv::Mat& valid,
   const int n = slic->getNumberOfSuperpixels();
   // Column and row of the resampled image holding each full-resolution column / row.
   std::vector<int> col(roi.width), row(roi.height);
-  for (int u = 0; u < roi.width; ++u)
-    col[u] = std::min(root_e > 1.0 ? static_cast<int>(u / sx) : u / k, sp.cols - 1);
-  for (int v = 0; v < roi.height; ++v)
-    row[v] = std::min(root_e > 1.0 ? static_cast<int>(v / sy) : v / k, sp.rows - 1);
+  for (int u = 0; u < roi.width; ++u) col[u] = std::min(root_e > 1.0 ? static_cast<int>(u / sx) : u / k, sp.cols - 1);
+  for (int v = 0; v < roi.height; ++v) row[v] = std::min(root_e > 1.0 ? static_cast<int>(v / sy) : v / k, sp.rows - 1);
   std::vector<int> total(n, 0), hit(n, 0);
   cv::Mat sub = mask(roi);
   for (int v = 0; v < roi.height; ++v) {
@@ -232,8 +230,10 @@ ReliefScale EstimateReliefScale(const ReliefImage& relief) {
   for (float x : vals) {
     if (x < lo) continue;
     const int b = static_cast<int>((x - lo) / bw);
-    if (b >= bins) above += 1;
-    else hist[b] += 1;
+    if (b >= bins)
+      above += 1;
+    else
+      hist[b] += 1;
   }
   std::vector<double> sm(bins, 0.0);
   for (int i = 0; i < bins; ++i)
@@ -315,7 +315,8 @@ DepressionSegmentation SegmentDepressions(const ReliefImage& relief, const Segme
   if (!(out.scale.sigma > 0)) throw std::invalid_argument("SegmentDepressions: relief scale sigma must be > 0");
   if (!noise_sigma.empty() && (noise_sigma.type() != CV_32FC1 || noise_sigma.size() != relief.value.size()))
     throw std::invalid_argument("SegmentDepressions: noise_sigma must be CV_32F of the relief's size");
-  if (!noisy_class.empty() && (noise_sigma.empty() || noisy_class.type() != CV_8UC1 || noisy_class.size() != relief.value.size()))
+  if (!noisy_class.empty() &&
+      (noise_sigma.empty() || noisy_class.type() != CV_8UC1 || noisy_class.size() != relief.value.size()))
     throw std::invalid_argument("SegmentDepressions: noisy_class must be CV_8U of the relief's size, with noise_sigma");
   cv::Mat z;
   relief.value.convertTo(z, CV_32F, 1.0 / out.scale.sigma, -out.scale.road_level / out.scale.sigma);
@@ -387,10 +388,16 @@ DepressionSegmentation SegmentDepressions(const ReliefImage& relief, const Segme
   }
   std::vector<int> new_id(n, 0);
   for (int i = 1; i < n; ++i) {
-    const bool big = pixel_area_m2.empty() ? stats.at<int>(i, cv::CC_STAT_AREA) >= o.min_area_px
-                                           : area[i] >= o.min_area_m2;
-    if (!big) { ++out.dropped_small; continue; }
-    if (out.count >= 65535) { ++out.dropped_small; continue; }  // 16-bit label image is full
+    const bool big =
+        pixel_area_m2.empty() ? stats.at<int>(i, cv::CC_STAT_AREA) >= o.min_area_px : area[i] >= o.min_area_m2;
+    if (!big) {
+      ++out.dropped_small;
+      continue;
+    }
+    if (out.count >= 65535) {
+      ++out.dropped_small;
+      continue;
+    }  // 16-bit label image is full
     new_id[i] = ++out.count;
   }
   out.labels.create(mask.size(), CV_16U);  // every pixel written below

@@ -40,12 +40,12 @@ ReliefScale EstimateReliefScale(const ReliefImage& relief);
 
 /// Result of SegmentDepressions.
 struct DepressionSegmentation {
-  cv::Mat labels;               ///< CV_16U instance ids 1..count, 0 = road / unknown
+  cv::Mat labels;  ///< CV_16U instance ids 1..count, 0 = road / unknown
   int count = 0;
-  ReliefScale scale;            ///< level and σ used
-  double threshold_sigma = 0;   ///< chosen threshold, σ below the road level (positive)
-  int dropped_small = 0;        ///< components removed by the minimum size
-  cv::Mat noise_sigma;          ///< CV_32F per-pixel σ the seeds were tested against (the caller's map; may be empty)
+  ReliefScale scale;           ///< level and σ used
+  double threshold_sigma = 0;  ///< chosen threshold, σ below the road level (positive)
+  int dropped_small = 0;       ///< components removed by the minimum size
+  cv::Mat noise_sigma;         ///< CV_32F per-pixel σ the seeds were tested against (the caller's map; may be empty)
 };
 
 /// Energy-minimising threshold on normalised relief z = (value − level)/σ: the
@@ -64,8 +64,8 @@ double EnergyThresholdSigma(const cv::Mat& z, const cv::Mat& valid, const Segmen
 /// of it below the road seeds whatever the frame's threshold; growth keeps the frame's threshold,
 /// except on `noisy_class` (optional CV_8U, non-zero = pixels of their own, noisier class, e.g.
 /// within the margin of paint edges, StrongEdgeMask), which join a region only as deep as a seed
-/// (a region would grow along a paint line's wrong winners). Throws std::invalid_argument on bad types or sizes (noisy_class without
-/// noise_sigma included).
+/// (a region would grow along a paint line's wrong winners). Throws std::invalid_argument on bad types or sizes
+/// (noisy_class without noise_sigma included).
 DepressionSegmentation SegmentDepressions(const ReliefImage& relief, const SegmentOptions& options,
                                           const cv::Mat& pixel_area_m2 = cv::Mat(),
                                           std::optional<ReliefScale> scale = std::nullopt,

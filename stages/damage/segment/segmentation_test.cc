@@ -130,7 +130,7 @@ TEST(SegmentDepressions, NoisyClassGrowsOnlyAsDeepAsItSeeds) {
   const DepressionSegmentation along = SegmentDepressions(relief, o, cv::Mat(), scale, noise);
   const DepressionSegmentation bowl = SegmentDepressions(relief, o, cv::Mat(), scale, noise, stripe);
   const cv::Rect far_up(200, 0, 12, 100), far_down(200, 260, 12, 100);  // the stripe beyond the bowl
-  EXPECT_GT(cv::countNonZero(along.labels(far_up)), 600);  // the region ran along the stripe
+  EXPECT_GT(cv::countNonZero(along.labels(far_up)), 600);               // the region ran along the stripe
   EXPECT_EQ(cv::countNonZero(bowl.labels(far_up)) + cv::countNonZero(bowl.labels(far_down)), 0);
   ASSERT_EQ(bowl.count, 1);
   const int area = cv::countNonZero(bowl.labels);
@@ -209,10 +209,11 @@ TEST(SegmentDepressions, Fan2019Dataset3) {
     ASSERT_FALSE(label.empty());
     const DepressionSegmentation seg = SegmentDepressions(ToRelief(disp), SegmentOptions());
     const PixelMetrics m = ComparePixels(seg.labels, label);
-    std::printf("fan2019 dataset3 %s: instances %d threshold %.1f sigma (level %.0f, sigma %.0f) "
-                "P %.3f R %.3f F1 %.3f IoU %.3f\n",
-                name, seg.count, seg.threshold_sigma, seg.scale.road_level, seg.scale.sigma, m.precision, m.recall,
-                m.f1, m.iou);
+    std::printf(
+        "fan2019 dataset3 %s: instances %d threshold %.1f sigma (level %.0f, sigma %.0f) "
+        "P %.3f R %.3f F1 %.3f IoU %.3f\n",
+        name, seg.count, seg.threshold_sigma, seg.scale.road_level, seg.scale.sigma, m.precision, m.recall, m.f1,
+        m.iou);
     EXPECT_GT(m.f1, 0.85) << name;
     overall.Add(m);
   }
