@@ -369,18 +369,8 @@ GpsOrder DecideGpsOrder(const std::vector<Record>& recs, const std::string& path
   return {true, "(lon, lat): ambiguous by magnitude; dialect default for GPS(x, y, n) (DJI GO firmware)"};
 }
 
-}  // namespace
-
-FlightTrack ReadDjiSrt(std::istream& in, const std::string& path) {
-  SrtParser parser(in, path);
-  const std::vector<Record> recs = parser.Parse();
-
-  FlightTrack track;
-  track.source_path = path;
-  track.format = "dji-srt";
-  track.time_base = TimeBase::kBoot;
-
-  // Completeness: a record without any position is a truncated record (or a camera-only file).
+// Completeness: a record without any position is a truncated record (or a camera-only file).
+void CheckPositions(const std::vector<Record>& recs, const std::string& path) {
   const bool any_position = std::any_of(recs.begin(), recs.end(), [](const Record& r) { return r.HasPosition(); });
   if (!any_position)
     throw InputError(InputLocation::Line(path, recs.front().line),
@@ -396,7 +386,13 @@ FlightTrack ReadDjiSrt(std::istream& in, const std::string& path) {
                            (r.tag_lat.Has() ? "latitude but no longitude" : "longitude but no latitude") +
                            " (truncated record?)");
   }
-  // Time: the video clock where every record has a timecode, else date-times relative to the first.
+}
+
+// Time: the video clock where every record has a timecode, else date-times relative to the first
+// dated record; the notes say which. Returns that first dated record (nullptr when none).
+const Record* ChooseTimeBase(const std::vector<Record>& recs, const std::string& path, bool* all_timecode_out,
+                             FlightTrack* track_out) {
+  FlightTrack& track = *track_out;
   const bool all_timecode =
       std::all_of(recs.begin(), recs.end(), [](const Record& r) { return r.timecode_ns.has_value(); });
   const bool all_datetime =
@@ -429,6 +425,41 @@ FlightTrack ReadDjiSrt(std::istream& in, const std::string& path) {
                           flightlog::FormatIsoNs(*first_dated->datetime_ns) + " at t_ns " +
                           std::to_string(all_timecode ? *first_dated->timecode_ns : 0));
   }
+
+  *all_timecode_out = all_timecode;
+  return first_dated;
+}
+
+// Altitude: absolute (AMSL) where the firmware gives it, else height above take-off.
+void SetAltitude(const Record& r, GnssFix* f) {
+  if (r.abs_alt.Has())
+    f->alt_m = r.abs_alt.v, f->alt_ref = AltitudeReference::kAmsl;
+  else if (r.altitude.Has())
+    f->alt_m = r.altitude.v, f->alt_ref = AltitudeReference::kAmsl;
+  else if (r.h.Has())
+    f->alt_m = r.h.v, f->alt_ref = AltitudeReference::kTakeoff;
+  else if (r.barometer.Has())
+    f->alt_m = r.barometer.v, f->alt_ref = AltitudeReference::kTakeoff;
+  else if (r.hb.Has())
+    f->alt_m = r.hb.v, f->alt_ref = AltitudeReference::kTakeoff;
+  else if (r.rel_alt.Has())
+    f->alt_m = r.rel_alt.v, f->alt_ref = AltitudeReference::kTakeoff;
+}
+
+}  // namespace
+
+FlightTrack ReadDjiSrt(std::istream& in, const std::string& path) {
+  SrtParser parser(in, path);
+  const std::vector<Record> recs = parser.Parse();
+
+  FlightTrack track;
+  track.source_path = path;
+  track.format = "dji-srt";
+  track.time_base = TimeBase::kBoot;
+
+  CheckPositions(recs, path);
+  bool all_timecode = false;
+  const Record* first_dated = ChooseTimeBase(recs, path, &all_timecode, &track);
 
   const bool any_call =
       std::any_of(recs.begin(), recs.end(), [](const Record& r) { return r.gps.present && !r.gps.not_available; });
@@ -471,19 +502,7 @@ FlightTrack ReadDjiSrt(std::istream& in, const std::string& path) {
       ++dropped_na;
       continue;
     }
-    // Altitude: absolute (AMSL) where the firmware gives it, else height above take-off.
-    if (r.abs_alt.Has())
-      f.alt_m = r.abs_alt.v, f.alt_ref = AltitudeReference::kAmsl;
-    else if (r.altitude.Has())
-      f.alt_m = r.altitude.v, f.alt_ref = AltitudeReference::kAmsl;
-    else if (r.h.Has())
-      f.alt_m = r.h.v, f.alt_ref = AltitudeReference::kTakeoff;
-    else if (r.barometer.Has())
-      f.alt_m = r.barometer.v, f.alt_ref = AltitudeReference::kTakeoff;
-    else if (r.hb.Has())
-      f.alt_m = r.hb.v, f.alt_ref = AltitudeReference::kTakeoff;
-    else if (r.rel_alt.Has())
-      f.alt_m = r.rel_alt.v, f.alt_ref = AltitudeReference::kTakeoff;
+    SetAltitude(r, &f);
     if (std::isnan(f.alt_m))
       ++n_none;
     else if (f.alt_ref == AltitudeReference::kAmsl)
