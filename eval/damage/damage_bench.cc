@@ -12,16 +12,9 @@
 #include "sim/synthetic_damage_scene.h"
 #include "stages/damage/output/damage_output.h"
 #include "stages/damage/damage_pipeline.h"
+#include "survey/elapsed.h"
 
 namespace rs {
-namespace {
-
-double MsSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
-
-}  // namespace
-
 DamageBench BenchDetectDamage(int width, int height, int repeats) {
   const SyntheticRoadScene scene = BenchmarkRoadScene(width, height);
   const cv::Mat disparity = scene.Render(), image = scene.RenderImage();

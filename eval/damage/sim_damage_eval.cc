@@ -8,6 +8,7 @@
 #include "eval/damage/sim_truth.h"
 #include "sim/road_scene.h"
 #include "sim/simulation_options.h"
+#include "survey/elapsed.h"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -104,10 +105,6 @@ cv::Mat ObstacleMask(const cv::Mat& truth_disp, const RectifiedStereo& g, const 
 
 double Percentile(std::vector<double> v, double q) {
   return v.empty() ? 0 : KthSmallestInPlace(v, QuantileRankNearest(q, v.size()));
-}
-
-double MsSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
 std::string LevelLetter(SeverityLevel l) {

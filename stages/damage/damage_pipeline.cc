@@ -12,6 +12,7 @@
 #include "stages/damage/grade/severity.h"
 #include "stages/damage/measure/sharp_disparity.h"
 #include "stages/damage/noise/two_sided_noise.h"
+#include "survey/elapsed.h"
 
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -30,10 +31,6 @@
 
 namespace rs {
 namespace {
-
-double MsSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
 
 // Appends crack instances to `labels`/`instances` with ids after the depressions.
 // Each crack is written within its bounding box only.

@@ -16,13 +16,10 @@
 #include <tbb/parallel_invoke.h>
 
 #include "stages/disparity/perspective_transform.h"
+#include "survey/elapsed.h"
 
 namespace rs {
 namespace {
-
-double MsSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
 
 std::string Num(double x) {
   std::string s = std::to_string(x);

@@ -15,12 +15,9 @@
 #include "stages/disparity/sgm_simd.h"
 #include "stages/disparity/sgm_steps.h"
 #include "stages/disparity/sgm_wta.h"
+#include "survey/elapsed.h"
 
 namespace rs::sgm_detail {
-
-inline double MsSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
 
 constexpr int kRowsPerToken = 4;  // four independent path chains per thread hide the step latency
 // Tokens in flight in pass 1 with the downward path: one per thread, at least 2 (the serial
