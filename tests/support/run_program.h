@@ -5,6 +5,7 @@
 
 #include <array>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -12,8 +13,12 @@
 
 namespace rs::test {
 
-/// Path of the built program.
-inline std::filesystem::path ProgramPath() { return std::filesystem::path(ROADSURVEY_BINARY_DIR) / "roadsurvey"; }
+/// Path of the built program; $ROADSURVEY_TEST_PROGRAM names another build of it (e.g. an older
+/// one, to show that a regression test fails there).
+inline std::filesystem::path ProgramPath() {
+  if (const char* other = std::getenv("ROADSURVEY_TEST_PROGRAM"); other && *other) return other;
+  return std::filesystem::path(ROADSURVEY_BINARY_DIR) / "roadsurvey";
+}
 
 struct ProgramResult {
   int exit_code = -1;
