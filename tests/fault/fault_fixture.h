@@ -59,8 +59,10 @@ inline std::vector<std::string> Differences(const std::map<std::string, std::str
   std::vector<std::string> diff;
   for (const auto& [name, bytes] : expected) {
     const auto it = actual.find(name);
-    if (it == actual.end()) diff.push_back("missing " + name);
-    else if (it->second != bytes) diff.push_back("changed " + name);
+    if (it == actual.end())
+      diff.push_back("missing " + name);
+    else if (it->second != bytes)
+      diff.push_back("changed " + name);
   }
   for (const auto& [name, bytes] : actual)
     if (!expected.count(name)) diff.push_back("extra " + name);
