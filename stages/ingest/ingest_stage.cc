@@ -6,7 +6,9 @@
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
 
+#include "formats/checked_file.h"
 #include "formats/flight_log/flight_log.h"
+#include "formats/image_file.h"
 #include "formats/flight_log/track_csv.h"
 #include "formats/stereo/calibration_check.h"
 #include "formats/stereo/calibration_readers.h"
@@ -164,9 +166,8 @@ void IngestStage::Run(StageContext& ctx, const IngestOptions& o) const {
         if (raw) {
           cv::Mat left_rect, right_rect;
           rectifier->Rectify(left, right, &left_rect, &right_rect);
-          if (!cv::imwrite((tmp / "left.png").string(), left_rect) ||
-              !cv::imwrite((tmp / "right.png").string(), right_rect))
-            throw std::runtime_error("cannot write rectified images to " + tmp.string());
+          WriteImageFile(tmp / "left.png", left_rect);
+          WriteImageFile(tmp / "right.png", right_rect);
         }
         out.counts["images_checked"] = 2;
         return out;
@@ -194,11 +195,7 @@ void IngestStage::Run(StageContext& ctx, const IngestOptions& o) const {
     const auto t1 = std::chrono::steady_clock::now();
     const auto& log_spec = survey.inputs["flight_log"];
     const FlightTrack track = ReadFlightLog(*log_path, log_spec.value("format", std::string("auto")));
-    std::ofstream(ctx.out_dir() / "track.csv") << [&] {
-      std::ostringstream ss;
-      WriteTrackCsv(ss, track);
-      return ss.str();
-    }();
+    WriteStreamChecked(ctx.out_dir() / "track.csv", [&](std::ostream& out) { WriteTrackCsv(out, track); });
     for (const auto& n : track.notes) ctx.Warn("flight log: " + n);
     if (track.fixes.empty()) throw InputError(InputLocation::File(log_path->string()), "flight log has no GNSS fix");
 
