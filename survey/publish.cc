@@ -1,6 +1,8 @@
 #include "survey/publish.h"
 
+#include <fcntl.h>
 #include <fmt/format.h>
+#include <stdio.h>  // renameat2
 
 #include <regex>
 #include <vector>
@@ -29,10 +31,15 @@ void LinkTree(const fs::path& from, const fs::path& to) {
   }
 }
 
-// Puts the finished `tmp` in place of `link`: one rename for a file; for a folder (rename(2)
-// cannot replace a non-empty one) the old one is first moved aside under a temporary name.
+// Puts the finished `tmp` in place of `link` in one rename. rename(2) cannot replace a non-empty
+// folder: the two are exchanged atomically instead (renameat2), or, where the filesystem cannot,
+// the old one is first moved aside under a temporary name.
 void ReplaceWith(const fs::path& tmp, const fs::path& link) {
   if (fs::is_directory(tmp) && fs::exists(fs::symlink_status(link))) {
+    if (::renameat2(AT_FDCWD, tmp.c_str(), AT_FDCWD, link.c_str(), RENAME_EXCHANGE) == 0) {
+      fs::remove_all(tmp);  // now the old one
+      return;
+    }
     const fs::path trash = TemporarySibling(link);
     fs::rename(link, trash);
     fs::rename(tmp, link);

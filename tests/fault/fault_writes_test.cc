@@ -5,6 +5,9 @@
 // publishes exactly what a clean run does, and no temporary name is left.
 #include <sys/mount.h>
 
+#include <cerrno>
+#include <cstring>
+
 #include "tests/fault/fault_fixture.h"
 
 namespace rs::test {
@@ -32,16 +35,22 @@ class FaultWrites : public FaultTest {
   }
 };
 
-// The per-frame TIFFs (about 0.9 MB each) exceed the limit; the smaller files fit. With SIGXFSZ
-// ignored (as some shells and services leave it) libtiff's write error used to be ignored and
-// truncated TIFFs published and cached.
+// `ulimit -f` counts 512-byte blocks in /bin/sh (dash, and bash in POSIX mode): 1200 = 600 KiB.
+// The per-frame float TIFFs (about 0.9 MB each) exceed it; every other file fits.
+constexpr const char* kFileSizeLimit = "ulimit -f 1200;";
+
+// With SIGXFSZ ignored (as some shells and services leave it) the damage stage's TIFF write errors
+// used to be ignored: exit 0, truncated TIFFs published, cached and reused by every later run.
+// (The disparity stage's TIFF is switched off so that the damage stage is the first to hit it.)
 TEST_F(FaultWrites, FileSizeLimitWithSignalIgnored) {
   const fs::path out = Output("ulimit_ignored");
-  const auto clean = CleanRunFiles(out);
-  const auto r = Run(out, "", "trap '' XFSZ; ulimit -f 600;");
-  ExpectCleanFailure(out, r, "transformed.tiff");
+  const std::string extra = "--disparity.write_transformed false";
+  const auto clean = CleanRunFiles(out, extra);
+  const auto r = Run(out, extra, std::string("trap '' XFSZ; ") + kFileSizeLimit);
+  ExpectCleanFailure(out, r, ".tiff");
+  EXPECT_NE(r.output.find("damage/"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("File too large"), std::string::npos) << r.output;
-  ExpectRecovery(out, clean);
+  ExpectRecovery(out, clean, extra);
 }
 
 // With the default SIGXFSZ action the kernel used to kill the run mid-write (no message, no
@@ -49,7 +58,7 @@ TEST_F(FaultWrites, FileSizeLimitWithSignalIgnored) {
 TEST_F(FaultWrites, FileSizeLimitWithDefaultSignal) {
   const fs::path out = Output("ulimit_default");
   const auto clean = CleanRunFiles(out);
-  const auto r = Run(out, "", "trap - XFSZ; ulimit -f 600;");
+  const auto r = Run(out, "", std::string("trap - XFSZ; ") + kFileSizeLimit);
   ExpectCleanFailure(out, r, "transformed.tiff");
   ExpectRecovery(out, clean);
 }
