@@ -268,13 +268,13 @@ RunReport RunSurvey(const StageRegistry& registry, const SurveyFile& survey, con
       // nothing is lost if it fails.
       const bool swap = forced.count(info.name) && fs::exists(dir);
       const fs::path run_dir = swap ? fs::path(dir.string() + ".rerun") : dir;
-      if (swap) fs::remove_all(run_dir);
-      fs::create_directories(run_dir);
       Progress progress(request.progress);
       StageContext ctx(info.name, survey, run_dir, input_dirs, request.frames, threads, progress);
       spdlog::info("{}: running (key {})", info.name, rec.key);
       const auto t0 = std::chrono::steady_clock::now();
       try {
+        if (swap) fs::remove_all(run_dir);
+        fs::create_directories(run_dir);  // on a full disk this fails too: a failed stage, not a crash
         stage->Run(ctx, rec.options);
         rec.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         rec.summary = ctx.summary();
