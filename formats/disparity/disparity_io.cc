@@ -50,9 +50,7 @@ cv::Mat ReadKittiDisparityPng(const std::filesystem::path& path, cv::Mat* valid)
   return d;
 }
 
-void WriteImageChecked(const std::string& path, const cv::Mat& image) {
-  WriteImageFile(path, image);
-}
+void WriteImageChecked(const std::string& path, const cv::Mat& image) { WriteImageFile(path, image); }
 
 void WriteDisparityPointCloud(const std::string& path, const cv::Mat& disparity, const cv::Mat& valid,
                               const cv::Mat& gray, const RectifiedStereo& camera) {
@@ -75,7 +73,8 @@ void WriteDisparityPointCloud(const std::string& path, const cv::Mat& disparity,
     out << "ply\nformat binary_little_endian 1.0\ncomment roadsurvey disparity point cloud, left camera frame, metres\n"
         << "element vertex " << points.size() << "\nproperty float x\nproperty float y\nproperty float z\n"
         << "property uchar intensity\nend_header\n";
-    out.write(reinterpret_cast<const char*>(points.data()), static_cast<std::streamsize>(points.size() * sizeof(Point)));
+    out.write(reinterpret_cast<const char*>(points.data()),
+              static_cast<std::streamsize>(points.size() * sizeof(Point)));
   });
 }
 

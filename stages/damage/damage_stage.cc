@@ -98,8 +98,7 @@ void DamageStage::Run(StageContext& ctx, const DamageStageOptions& o) const {
                                        {"obstacle_points", result.surface.obstacle_points}}}};
         detections.update(DetectionsToJson(result.instances));  // "schema" + "detections"
         WriteJsonAtomic(tmp / "detections.json", detections);
-        if (o.write_overlay)
-          WriteImageFile(tmp / "overlay.png", RenderOverlay(left, result.labels, result.instances));
+        if (o.write_overlay) WriteImageFile(tmp / "overlay.png", RenderOverlay(left, result.labels, result.instances));
         if (o.write_relief) {
           WriteImageFile(tmp / "transformed.tiff", result.relief.transformed_disparity_px);
           WriteImageFile(tmp / "depth_below_road_mm.tiff", result.relief.depth_below_mm);
