@@ -295,17 +295,26 @@ TEST_F(ExecutorTest, BadFrameFailsStageWhenNotSkipping) {
   EXPECT_NE(r.Find("scale")->error.find("105.txt:1: not a number"), std::string::npos) << r.Find("scale")->error;
 }
 
-TEST_F(ExecutorTest, FrameSelectionReusesFrames) {
+TEST_F(ExecutorTest, FrameRangeIsCachedAndPublishedApart) {
   RunRequest req;
   req.frames = FrameSelection::Parse("0:4");
-  Run(req);
+  const auto range = Run(req);
   EXPECT_EQ(g_scale_frames, 4);
-  EXPECT_EQ(Slurp(root_ / "out" / "sum.txt"), "20");
-  const auto r = Run();
-  EXPECT_EQ(Status(r, "scale"), "computed");
-  EXPECT_EQ(r.Find("scale")->summary.frames_reused, 4);
-  EXPECT_EQ(g_scale_frames, 10);
+  EXPECT_EQ(range.manifest_path, root_ / "out" / "frames-0-4" / "manifest.json");
+  EXPECT_EQ(Slurp(root_ / "out" / "frames-0-4" / "sum.txt"), "20");
+  EXPECT_FALSE(fs::exists(root_ / "out" / "sum.txt")) << "a range run publishes only in its own folder";
+  // The full run has its own keys: it neither reuses nor overwrites the range run's cache.
+  const auto full = Run();
+  EXPECT_EQ(Status(full, "scale"), "computed");
+  EXPECT_NE(full.Find("scale")->key, range.Find("scale")->key);
+  EXPECT_EQ(full.Find("scale")->summary.frames_reused, 0);
+  EXPECT_EQ(g_scale_frames, 14);
   EXPECT_EQ(Slurp(root_ / "out" / "sum.txt"), "110");
+  EXPECT_EQ(Slurp(root_ / "out" / "frames-0-4" / "sum.txt"), "20");
+  // Both stay cached.
+  EXPECT_EQ(Status(Run(req), "scale"), "reused");
+  EXPECT_EQ(Status(Run(), "scale"), "reused");
+  EXPECT_EQ(g_scale_frames, 14);
 }
 
 TEST_F(ExecutorTest, BadOptionsFailBeforeAnyWork) {
