@@ -137,7 +137,8 @@ std::map<std::string, std::string> ComputeKeys(const StageRegistry& registry, co
     AddFrameSelection(h, frames);
     std::map<std::string, std::string> inputs;
     for (const auto& artifact : info.inputs)
-      inputs[artifact] = IsSourceArtifact(artifact) ? SourceKey(survey, artifact, output) : keys.at(graph.ProducerOf(artifact));
+      inputs[artifact] =
+          IsSourceArtifact(artifact) ? SourceKey(survey, artifact, output) : keys.at(graph.ProducerOf(artifact));
     for (const auto& [artifact, key] : inputs) h.Add(artifact).Add(key);  // std::map: sorted, canonical
     keys[info.name] = h.Hex();
     if (input_keys) (*input_keys)[info.name] = inputs;

@@ -67,8 +67,7 @@ nlohmann::json ResolveOptions(const StageRegistry& registry, const SurveyFile& s
 /// from a full run's, so it never reuses or overwrites a full run's cache folders.
 std::map<std::string, std::string> ComputeKeys(
     const StageRegistry& registry, const JobGraph& graph, const SurveyFile& survey, const nlohmann::json& options,
-    std::map<std::string, std::map<std::string, std::string>>* input_keys = nullptr,
-    const FrameSelection& frames = {});
+    std::map<std::string, std::map<std::string, std::string>>* input_keys = nullptr, const FrameSelection& frames = {});
 
 /// Runs the survey. Throws ConfigError/OptionError before any work on bad
 /// options; stage failures are reported in the RunReport (and manifest), and

@@ -33,9 +33,9 @@ std::string FrameSelection::FolderName() const {
 
 void FrameSelection::RequireSelects(int64_t frame_count, const std::string& survey_file) const {
   if (All() || (begin < frame_count && end > 0)) return;
-  const std::string range = frame_count > 0 ? fmt::format("{} frames, ids 0 to {} (--frames 0:{})", frame_count,
-                                                          frame_count - 1, frame_count)
-                                            : std::string("no frames");
+  const std::string range =
+      frame_count > 0 ? fmt::format("{} frames, ids 0 to {} (--frames 0:{})", frame_count, frame_count - 1, frame_count)
+                      : std::string("no frames");
   throw InputError(InputLocation::File(survey_file),
                    fmt::format("--frames {} selects no frame: the survey has {}", ToString(), range));
 }

@@ -45,7 +45,8 @@ StageSummary StageSummary::FromJson(const nlohmann::json& j) {
   s.frames_skipped = frames.value("skipped", int64_t{0});
   s.skip_reasons = frames.value("skip_reasons", std::map<std::string, int64_t>{});
   for (const auto& j : frames.value("skipped_frames", nlohmann::json::array()))
-    s.skipped.push_back({j.value("frame", int64_t{0}), j.value("reason", std::string()), j.value("where", std::string())});
+    s.skipped.push_back(
+        {j.value("frame", int64_t{0}), j.value("reason", std::string()), j.value("where", std::string())});
   return s;
 }
 

@@ -186,7 +186,7 @@ StereoSource OpenPlain(const fs::path& root, Sink* sink) {
     const size_t nl = ListImages(root / "left").size(), nr = ListImages(root / "right").size();
     if (nl != nr)
       sink->Warning(InputLocation::File(root.string()),
-                  "left/ holds " + std::to_string(nl) + " images but right/ holds " + std::to_string(nr));
+                    "left/ holds " + std::to_string(nl) + " images but right/ holds " + std::to_string(nr));
   }
   std::optional<StereoCalibration> calib;
   if (fs::exists(root / "calibration.yaml")) sink->Try([&] { calib = ReadCalibrationYaml(root / "calibration.yaml"); });
@@ -202,9 +202,9 @@ StereoSource OpenKittiOdometry(const fs::path& root, Sink* sink) {
   const std::vector<fs::path> lefts = ListImages(ld);
   const size_t nr = fs::is_directory(rd) ? ListImages(rd).size() : 0;
   if (lefts.size() != nr)
-    sink->Warning(InputLocation::File(root.string()), ld.filename().string() + "/ holds " + std::to_string(lefts.size()) +
-                                                        " images but " + rd.filename().string() + "/ holds " +
-                                                        std::to_string(nr));
+    sink->Warning(InputLocation::File(root.string()), ld.filename().string() + "/ holds " +
+                                                          std::to_string(lefts.size()) + " images but " +
+                                                          rd.filename().string() + "/ holds " + std::to_string(nr));
   const fs::path times = root / "times.txt";
   std::vector<std::string> lines;
   const bool have_times = fs::exists(times);
@@ -259,7 +259,7 @@ StereoSource OpenKittiRaw(const fs::path& root, Sink* sink) {
   const size_t nr = fs::is_directory(rd) ? ListImages(rd).size() : 0;
   if (lefts.size() != nr)
     sink->Warning(InputLocation::File(root.string()), "image_02/data holds " + std::to_string(lefts.size()) +
-                                                        " images but image_03/data holds " + std::to_string(nr));
+                                                          " images but image_03/data holds " + std::to_string(nr));
   for (const fs::path& l : lefts) {
     int64_t index;
     if (!ParseInt64(l.stem().string(), &index) || index < 0) {

@@ -44,9 +44,7 @@ void RequireImageFiles(const FrameRecord& f) {
 }
 
 // ingest.json's list of the frames left out, by id, with the reason and the file at fault.
-nlohmann::json SkippedFramesJson(const StageSummary& summary) {
-  return summary.ToJson()["frames"]["skipped_frames"];
-}
+nlohmann::json SkippedFramesJson(const StageSummary& summary) { return summary.ToJson()["frames"]["skipped_frames"]; }
 
 int64_t Seconds(double s) { return static_cast<int64_t>(std::llround(s * 1e9)); }
 

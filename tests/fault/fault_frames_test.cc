@@ -50,8 +50,7 @@ TEST_F(FaultTest, FramesSelectingNoFrameIsBadInputStatingTheRange) {
   const fs::path out = Output("no_frame");
   const auto r = Run(out, "--frames 100:200");
   EXPECT_EQ(r.exit_code, 2) << r.output;
-  EXPECT_NE(r.output.find("--frames 100:200 selects no frame: the survey has 8 frames, ids 0 to 7"),
-            std::string::npos)
+  EXPECT_NE(r.output.find("--frames 100:200 selects no frame: the survey has 8 frames, ids 0 to 7"), std::string::npos)
       << r.output;
   for (const auto& [name, bytes] : PublishedFiles(out))
     EXPECT_NE(fs::path(name).filename(), "trajectory.tum") << "published " << name;

@@ -60,8 +60,7 @@ TEST_F(FaultTest, CorruptLeftImageSkipsThatFrameOnlyInEveryStage) {
   EXPECT_EQ(r.output.find("skipped frame 4"), std::string::npos) << r.output;
   const auto status = RunProgram("status " + out.string());
   EXPECT_EQ(status.exit_code, 0) << status.output;
-  EXPECT_NE(status.output.find("skipped frame 3: truncated PNG (no IEND chunk)"), std::string::npos)
-      << status.output;
+  EXPECT_NE(status.output.find("skipped frame 3: truncated PNG (no IEND chunk)"), std::string::npos) << status.output;
 
   // Downstream outputs for every good frame, the next one included.
   for (int f = 0; f < 8; ++f) {
