@@ -5,7 +5,7 @@
 //
 // Cache layout: <output>/work/<stage>/<key>/ with stage.json written last
 // (its presence marks the run complete). key = hash(stage name, version,
-// canonical options JSON, keys of its inputs).
+// canonical options JSON, keys of its inputs, the frame selection unless all).
 
 #include <nlohmann/json.hpp>
 
