@@ -3,6 +3,7 @@
 
 #include "cli/command.h"
 #include "cli/option_flags.h"
+#include "cli/skipped_frames.h"
 #include "cli/survey_loading.h"
 #include "survey/executor.h"
 
@@ -54,11 +55,11 @@ Command RunCommand() {
               for (const auto& r : report.stages) {
                 fmt::print("{:<12} {:<13} {:>9.2f} {:>9} {:>7} {:>8}\n", r.name, ToString(r.status), r.wall_s,
                            r.summary.frames_computed, r.summary.frames_reused, r.summary.frames_skipped);
-                for (const auto& [reason, n] : r.summary.skip_reasons) fmt::print("    skipped {}x: {}\n", n, reason);
+                PrintSkippedFrames(r.summary.ToJson()["frames"]["skipped_frames"]);
                 if (!r.error.empty()) fmt::print("    error: {}\n", r.error);
               }
               if (!report.error.empty()) fmt::print("error: {}\n", report.error);
-              fmt::print("\nOutputs in {}\n", survey.output_dir.string());
+              fmt::print("\nOutputs in {}\n", RunFolder(survey, req.frames).string());
               for (const auto& [name, path] : report.published) fmt::print("  {}\n", name);
               fmt::print("  manifest.json (what ran, keys, counts, warnings, options)\n");
               return report.exit_code;

@@ -2,6 +2,7 @@
 #include <fmt/format.h>
 
 #include "cli/command.h"
+#include "cli/skipped_frames.h"
 #include <nlohmann/json.hpp>
 
 #include "formats/input_error.h"
@@ -71,6 +72,7 @@ Command StatusCommand() {
                            s.value("key", ""), s.value("wall_s", 0.0), frames.value("computed", 0),
                            frames.value("reused", 0), frames.value("skipped", 0),
                            s.value("warnings", nlohmann::json::array()).size());
+                PrintSkippedFrames(frames.value("skipped_frames", nlohmann::json::array()));
                 if (s.contains("error")) fmt::print("    error: {}\n", s["error"].get<std::string>());
               }
               if (m.contains("error")) fmt::print("error: {}\n", m["error"].get<std::string>());

@@ -10,6 +10,7 @@
 
 #include "survey/atomic_file.h"
 #include "survey/hash.h"
+#include "survey/input_key.h"
 #include "survey/output_lock.h"
 #include "survey/publish.h"
 #include "survey/version.h"
@@ -30,18 +31,11 @@ std::string UtcNow() {
   return buf;
 }
 
-std::string SourceKey(const SurveyFile& survey, const std::string& artifact) {
-  KeyHasher h;
-  h.Add(artifact);
-  if (artifact == kSurveyCrs) {
-    h.Add(survey.crs);
-    return h.Hex();
-  }
-  h.Add(survey.inputs.dump());
-  for (const auto& [name, spec] : survey.inputs.items()) {
-    if (const auto p = survey.InputPath(name)) h.Add(name).Add(FingerprintPath(*p, survey.output_dir));
-  }
-  return h.Hex();
+// The selection sets a frame-range run's keys apart from a full run's (a full run's keys do not
+// change): every stage's result may depend on it, through the frames ingest lists and the
+// disparity stage's temporal prior (the previous listed frame), so no cache is shared.
+void AddFrameSelection(KeyHasher& h, const FrameSelection& frames) {
+  if (!frames.All()) h.Add("frames").Add(frames.ToString());
 }
 
 // A complete run for this key and frame selection exists at `dir`.
@@ -122,13 +116,13 @@ void TryWriteManifest(const SurveyFile& survey, const RunRequest& request, const
 
 // Publishes a stage's results under their stable names; a failure fails the stage (exit 1), not
 // the cache.
-void PublishStage(const StageInfo& info, const fs::path& dir, const SurveyFile& survey, StageRunRecord& rec,
+void PublishStage(const StageInfo& info, const fs::path& dir, const fs::path& run_folder, StageRunRecord& rec,
                   RunReport& report) {
   for (const auto& pub : info.published) {
     const fs::path from = dir / pub.from;
     if (!fs::exists(from)) continue;
     try {
-      PublishFile(from, survey.output_dir / pub.to);
+      PublishFile(from, run_folder / pub.to);
       report.published[pub.to] = from.string();
     } catch (const std::exception& e) {
       rec.error = e.what();
@@ -155,6 +149,10 @@ const StageRunRecord* RunReport::Find(const std::string& name) const {
   for (const auto& r : stages)
     if (r.name == name) return &r;
   return nullptr;
+}
+
+fs::path RunFolder(const SurveyFile& survey, const FrameSelection& frames) {
+  return frames.All() ? survey.output_dir : survey.output_dir / frames.FolderName();
 }
 
 fs::path StageRunDir(const SurveyFile& survey, const std::string& stage, const std::string& key) {
@@ -186,15 +184,19 @@ nlohmann::json ResolveOptions(const StageRegistry& registry, const SurveyFile& s
 
 std::map<std::string, std::string> ComputeKeys(const StageRegistry& registry, const JobGraph& graph,
                                                const SurveyFile& survey, const nlohmann::json& options,
-                                               std::map<std::string, std::map<std::string, std::string>>* input_keys) {
+                                               std::map<std::string, std::map<std::string, std::string>>* input_keys,
+                                               const FrameSelection& frames) {
+  const OutputExclusion output = SurveyOutputExclusion(registry, survey);
   std::map<std::string, std::string> keys;
   for (const Stage* stage : graph.order()) {
     const StageInfo& info = stage->info();
     KeyHasher h;
     h.Add("stage").Add(info.name).Add(static_cast<int64_t>(info.version)).Add(options.at(info.name).dump());
+    AddFrameSelection(h, frames);
     std::map<std::string, std::string> inputs;
     for (const auto& artifact : info.inputs)
-      inputs[artifact] = IsSourceArtifact(artifact) ? SourceKey(survey, artifact) : keys.at(graph.ProducerOf(artifact));
+      inputs[artifact] =
+          IsSourceArtifact(artifact) ? SourceKey(survey, artifact, output) : keys.at(graph.ProducerOf(artifact));
     for (const auto& [artifact, key] : inputs) h.Add(artifact).Add(key);  // std::map: sorted, canonical
     keys[info.name] = h.Hex();
     if (input_keys) (*input_keys)[info.name] = inputs;
@@ -209,15 +211,17 @@ RunReport RunSurvey(const StageRegistry& registry, const SurveyFile& survey, con
   if (request.only) registry.Get(*request.only);
 
   std::map<std::string, std::map<std::string, std::string>> input_keys;
-  const auto keys = ComputeKeys(registry, graph, survey, options, &input_keys);
+  const auto keys = ComputeKeys(registry, graph, survey, options, &input_keys, request.frames);
   const std::set<std::string> forced =
       request.rerun_from ? graph.Downstream(*request.rerun_from) : std::set<std::string>{};
   const int threads = request.threads > 0 ? request.threads : std::max(1u, std::thread::hardware_concurrency());
 
   const std::string started = UtcNow();
   const OutputLock lock = TakeOutputFolder(survey.output_dir, started);
+  const fs::path run_folder = RunFolder(survey, request.frames);
+  fs::create_directories(run_folder);
   RunReport report;
-  report.manifest_path = survey.output_dir / "manifest.json";
+  report.manifest_path = run_folder / "manifest.json";
   std::set<std::string> unavailable;  // stages whose outputs this run cannot provide
 
   for (const Stage* stage : graph.order()) {
@@ -316,7 +320,7 @@ RunReport RunSurvey(const StageRegistry& registry, const SurveyFile& survey, con
 
     if (rec.status == StageStatus::kComputed || rec.status == StageStatus::kReused ||
         (rec.status == StageStatus::kNotSelected && rec.cached))
-      PublishStage(info, dir, survey, rec, report);
+      PublishStage(info, dir, run_folder, rec, report);
     report.exit_code = std::max(report.exit_code, rec.exit_code);
     report.stages.push_back(std::move(rec));
     TryWriteManifest(survey, request, started, report, false);

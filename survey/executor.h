@@ -5,7 +5,7 @@
 //
 // Cache layout: <output>/work/<stage>/<key>/ with stage.json written last
 // (its presence marks the run complete). key = hash(stage name, version,
-// canonical options JSON, keys of its inputs).
+// canonical options JSON, keys of its inputs, the frame selection unless all).
 
 #include <nlohmann/json.hpp>
 
@@ -64,15 +64,21 @@ struct RunReport {
 nlohmann::json ResolveOptions(const StageRegistry& registry, const SurveyFile& survey,
                               const nlohmann::json& cli_overrides);
 
-/// Cache keys of every stage for these options (same for every selection of frames).
+/// Cache keys of every stage for these options and frames. A frame-range run's keys differ
+/// from a full run's, so it never reuses or overwrites a full run's cache folders.
 std::map<std::string, std::string> ComputeKeys(
     const StageRegistry& registry, const JobGraph& graph, const SurveyFile& survey, const nlohmann::json& options,
-    std::map<std::string, std::map<std::string, std::string>>* input_keys = nullptr);
+    std::map<std::string, std::map<std::string, std::string>>* input_keys = nullptr, const FrameSelection& frames = {});
 
 /// Runs the survey. Throws ConfigError/OptionError before any work on bad
 /// options; stage failures are reported in the RunReport (and manifest), and
 /// independent branches still run.
 RunReport RunSurvey(const StageRegistry& registry, const SurveyFile& survey, const RunRequest& request);
+
+/// Where a run publishes its outputs and manifest.json: the output folder for all frames,
+/// <output>/frames-A-B/ for a frame range (never over a full run's files). The cache
+/// (<output>/work/) is shared.
+std::filesystem::path RunFolder(const SurveyFile& survey, const FrameSelection& frames);
 
 /// Folder of a stage run in the cache.
 std::filesystem::path StageRunDir(const SurveyFile& survey, const std::string& stage, const std::string& key);

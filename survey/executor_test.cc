@@ -277,6 +277,14 @@ TEST_F(ExecutorTest, BadFrameIsSkippedAndCounted) {
   const auto& rec = *r.Find("scale");
   EXPECT_EQ(rec.summary.frames_skipped, 1);
   EXPECT_EQ(rec.summary.skip_reasons.at("not a number"), 1);
+  // Identified by frame id (105.txt is the 6th file: id 5), reason and file, here and in the manifest.
+  ASSERT_EQ(rec.summary.skipped.size(), 1u);
+  EXPECT_EQ(rec.summary.skipped[0].frame, 5);
+  EXPECT_EQ(rec.summary.skipped[0].reason, "not a number");
+  EXPECT_EQ(rec.summary.skipped[0].where, (root_ / "numbers" / "105.txt").string() + ":1");
+  const auto listed = ReadJsonFile(r.manifest_path)["stages"]["scale"]["frames"]["skipped_frames"];
+  EXPECT_EQ(listed, nlohmann::json::parse(R"([{"frame": 5, "reason": "not a number", "where": ")" +
+                                          (root_ / "numbers" / "105.txt").string() + R"(:1"}])"));
   EXPECT_EQ(Slurp(root_ / "out" / "sum.txt"), "98");  // 110 - 2 * 6
   // The skip is cached and still reported on a resumed run.
   RunRequest only_scale;
@@ -285,6 +293,22 @@ TEST_F(ExecutorTest, BadFrameIsSkippedAndCounted) {
   EXPECT_EQ(Status(r2, "scale"), "reused");
   EXPECT_EQ(r2.Find("scale")->summary.frames_skipped, 1) << "reused runs report the cached run's summary";
   EXPECT_EQ(r2.Find("scale")->summary.skip_reasons.at("not a number"), 1);
+  ASSERT_EQ(r2.Find("scale")->summary.skipped.size(), 1u);
+  EXPECT_EQ(r2.Find("scale")->summary.skipped[0].frame, 5);
+}
+
+TEST(StageSummary, SkippedFramesListedByIdWhateverTheOrderTheyFinished) {
+  StageSummary s;
+  s.skipped = {{7, "truncated PNG (no IEND chunk)", "left/000007.png @ byte 300"}, {2, "right image missing", ""}};
+  const auto j = s.ToJson();
+  const auto expected = nlohmann::json::parse(R"js([
+    {"frame": 2, "reason": "right image missing"},
+    {"frame": 7, "reason": "truncated PNG (no IEND chunk)", "where": "left/000007.png @ byte 300"}])js");
+  EXPECT_EQ(j["frames"]["skipped_frames"], expected);
+  const StageSummary back = StageSummary::FromJson(j);
+  ASSERT_EQ(back.skipped.size(), 2u);
+  EXPECT_EQ(back.skipped[0].frame, 2);
+  EXPECT_EQ(back.skipped[1].where, "left/000007.png @ byte 300");
 }
 
 TEST_F(ExecutorTest, BadFrameFailsStageWhenNotSkipping) {
@@ -295,17 +319,26 @@ TEST_F(ExecutorTest, BadFrameFailsStageWhenNotSkipping) {
   EXPECT_NE(r.Find("scale")->error.find("105.txt:1: not a number"), std::string::npos) << r.Find("scale")->error;
 }
 
-TEST_F(ExecutorTest, FrameSelectionReusesFrames) {
+TEST_F(ExecutorTest, FrameRangeIsCachedAndPublishedApart) {
   RunRequest req;
   req.frames = FrameSelection::Parse("0:4");
-  Run(req);
+  const auto range = Run(req);
   EXPECT_EQ(g_scale_frames, 4);
-  EXPECT_EQ(Slurp(root_ / "out" / "sum.txt"), "20");
-  const auto r = Run();
-  EXPECT_EQ(Status(r, "scale"), "computed");
-  EXPECT_EQ(r.Find("scale")->summary.frames_reused, 4);
-  EXPECT_EQ(g_scale_frames, 10);
+  EXPECT_EQ(range.manifest_path, root_ / "out" / "frames-0-4" / "manifest.json");
+  EXPECT_EQ(Slurp(root_ / "out" / "frames-0-4" / "sum.txt"), "20");
+  EXPECT_FALSE(fs::exists(root_ / "out" / "sum.txt")) << "a range run publishes only in its own folder";
+  // The full run has its own keys: it neither reuses nor overwrites the range run's cache.
+  const auto full = Run();
+  EXPECT_EQ(Status(full, "scale"), "computed");
+  EXPECT_NE(full.Find("scale")->key, range.Find("scale")->key);
+  EXPECT_EQ(full.Find("scale")->summary.frames_reused, 0);
+  EXPECT_EQ(g_scale_frames, 14);
   EXPECT_EQ(Slurp(root_ / "out" / "sum.txt"), "110");
+  EXPECT_EQ(Slurp(root_ / "out" / "frames-0-4" / "sum.txt"), "20");
+  // Both stay cached.
+  EXPECT_EQ(Status(Run(req), "scale"), "reused");
+  EXPECT_EQ(Status(Run(), "scale"), "reused");
+  EXPECT_EQ(g_scale_frames, 14);
 }
 
 TEST_F(ExecutorTest, BadOptionsFailBeforeAnyWork) {

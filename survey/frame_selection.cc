@@ -4,6 +4,7 @@
 
 #include <charconv>
 
+#include "formats/input_error.h"
 #include "survey/options.h"
 
 namespace rs {
@@ -22,6 +23,21 @@ int64_t ParseBound(const std::string& text, const std::string& whole) {
 std::string FrameSelection::ToString() const {
   if (All()) return "all";
   return end == std::numeric_limits<int64_t>::max() ? fmt::format("{}:", begin) : fmt::format("{}:{}", begin, end);
+}
+
+std::string FrameSelection::FolderName() const {
+  if (All()) return "";
+  return end == std::numeric_limits<int64_t>::max() ? fmt::format("frames-{}-end", begin)
+                                                    : fmt::format("frames-{}-{}", begin, end);
+}
+
+void FrameSelection::RequireSelects(int64_t frame_count, const std::string& survey_file) const {
+  if (All() || (begin < frame_count && end > 0)) return;
+  const std::string range =
+      frame_count > 0 ? fmt::format("{} frames, ids 0 to {} (--frames 0:{})", frame_count, frame_count - 1, frame_count)
+                      : std::string("no frames");
+  throw InputError(InputLocation::File(survey_file),
+                   fmt::format("--frames {} selects no frame: the survey has {}", ToString(), range));
 }
 
 FrameSelection FrameSelection::Parse(const std::string& text) {

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include "formats/input_error.h"
 #include "survey/options.h"
 
 namespace rs {
@@ -22,6 +23,27 @@ TEST(FrameSelection, Malformed) {
   EXPECT_THROW(FrameSelection::Parse("a:b"), OptionError);
   EXPECT_THROW(FrameSelection::Parse("7:3"), OptionError);
   EXPECT_THROW(FrameSelection::Parse("-1:3"), OptionError);
+}
+
+TEST(FrameSelection, FolderNameSetsRangeRunsApart) {
+  EXPECT_EQ(FrameSelection::Parse("all").FolderName(), "");
+  EXPECT_EQ(FrameSelection::Parse("0:10").FolderName(), "frames-0-10");
+  EXPECT_EQ(FrameSelection::Parse(":4").FolderName(), "frames-0-4");
+  EXPECT_EQ(FrameSelection::Parse("5:").FolderName(), "frames-5-end");
+}
+
+TEST(FrameSelection, EmptySelectionIsAnInputErrorStatingTheRange) {
+  FrameSelection::Parse("all").RequireSelects(48, "survey.json");
+  FrameSelection::Parse("47:100").RequireSelects(48, "survey.json");  // frame 47 is selected
+  FrameSelection::Parse(":1").RequireSelects(48, "survey.json");
+  try {
+    FrameSelection::Parse("100:200").RequireSelects(48, "survey.json");
+    FAIL() << "no frame selected but no error";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "survey.json: --frames 100:200 selects no frame: the survey has 48 frames, ids 0 to 47 (--frames 0:48)");
+  }
+  EXPECT_THROW(FrameSelection::Parse("48:").RequireSelects(48, "survey.json"), InputError);
 }
 
 }  // namespace

@@ -3,6 +3,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <string_view>
 
@@ -25,12 +26,22 @@ class KeyHasher {
   void* state_;
 };
 
+/// The survey's own output folder as seen from an input's fingerprint: what a run writes there
+/// must not change the input's key, wherever the output folder lies.
+struct OutputExclusion {
+  std::filesystem::path dir;  ///< the output folder (empty: exclude nothing)
+  /// Top-level names in `dir` that the output owns (cache, manifest, published outputs,
+  /// temporaries). Used when `dir` is the input folder itself (`"output": "."`); when `dir`
+  /// lies below the input folder, all of it is left out.
+  std::function<bool(const std::string& name)> owned;
+};
+
 /// Key of a file or folder as found on disk: relative paths, sizes and
 /// modification times of every regular file below it (make-style; contents are
 /// not read so thousands of frames fingerprint in milliseconds).
 /// Missing paths hash as "missing" so that creating them changes the key.
-/// Files under `exclude` (e.g. the survey's own output folder when it lies
-/// inside an input folder) are left out.
-std::string FingerprintPath(const std::filesystem::path& path, const std::filesystem::path& exclude = {});
+/// The survey's output (`exclude`) is left out: the whole folder when it lies below `path`,
+/// the entries it owns when it is `path` itself.
+std::string FingerprintPath(const std::filesystem::path& path, const OutputExclusion& exclude = {});
 
 }  // namespace rs

@@ -4,6 +4,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
+#include <algorithm>
 #include <atomic>
 
 #include "formats/checked_file.h"
@@ -13,6 +14,14 @@ namespace rs {
 namespace fs = std::filesystem;
 
 nlohmann::json StageSummary::ToJson() const {
+  std::vector<SkippedFrame> by_id = skipped;
+  std::sort(by_id.begin(), by_id.end());  // frames finish in any order on many threads
+  nlohmann::json skipped_frames = nlohmann::json::array();
+  for (const auto& s : by_id) {
+    nlohmann::json j = {{"frame", s.frame}, {"reason", s.reason}};
+    if (!s.where.empty()) j["where"] = s.where;
+    skipped_frames.push_back(std::move(j));
+  }
   return {{"counts", counts},
           {"timings_s", timings_s},
           {"warnings", warnings},
@@ -21,7 +30,8 @@ nlohmann::json StageSummary::ToJson() const {
             {"computed", frames_computed},
             {"reused", frames_reused},
             {"skipped", frames_skipped},
-            {"skip_reasons", skip_reasons}}}};
+            {"skip_reasons", skip_reasons},
+            {"skipped_frames", skipped_frames}}}};
 }
 
 StageSummary StageSummary::FromJson(const nlohmann::json& j) {
@@ -35,6 +45,9 @@ StageSummary StageSummary::FromJson(const nlohmann::json& j) {
   s.frames_reused = frames.value("reused", int64_t{0});
   s.frames_skipped = frames.value("skipped", int64_t{0});
   s.skip_reasons = frames.value("skip_reasons", std::map<std::string, int64_t>{});
+  for (const auto& j : frames.value("skipped_frames", nlohmann::json::array()))
+    s.skipped.push_back(
+        {j.value("frame", int64_t{0}), j.value("reason", std::string()), j.value("where", std::string())});
   return s;
 }
 
@@ -71,9 +84,8 @@ void StageContext::ForEachFrame(const std::vector<FrameRecord>& frames, const Fr
     const fs::path dir = FrameDir(frames[i].id);
     if (fs::exists(dir / "skipped.json")) {
       // Skipped in an earlier (interrupted) run: still skipped, and still reported.
-      std::lock_guard lock(mutex_);
-      ++summary_.frames_skipped;
-      ++summary_.skip_reasons[ReadJsonFile(dir / "skipped.json").value("reason", std::string("?"))];
+      const auto earlier = ReadJsonFile(dir / "skipped.json");
+      RecordSkip(frames[i].id, earlier.value("reason", std::string("?")), earlier.value("where", std::string()));
     } else if (fs::exists(dir)) {
       ++reused;
     } else {
@@ -120,10 +132,7 @@ void StageContext::ForEachFrame(const std::vector<FrameRecord>& frames, const Fr
         WriteJsonAtomic(tmp_dir / "skipped.json",
                         {{"frame", frame.id.value}, {"reason", e.message()}, {"where", e.where().ToString()}});
         CommitDirectory(tmp_dir, final_dir);
-        std::lock_guard lock(mutex_);
-        ++summary_.frames_skipped;
-        ++summary_.skip_reasons[e.message()];
-        summary_.warnings.push_back(fmt::format("frame {} skipped: {}", frame.id.value, e.what()));
+        SkipFrame(frame.id, e.message(), e.where().ToString());
       } catch (const WriteError& e) {
         // Name the file as it would have been committed, not its temporary folder.
         std::error_code ec;
@@ -148,6 +157,20 @@ void StageContext::ForEachFrame(const std::vector<FrameRecord>& frames, const Fr
   });
   progress_.Finish();
   if (first_error) std::rethrow_exception(first_error);
+}
+
+void StageContext::RecordSkip(FrameId id, const std::string& reason, const std::string& where) {
+  std::lock_guard lock(mutex_);
+  ++summary_.frames_skipped;
+  ++summary_.skip_reasons[reason];
+  summary_.skipped.push_back({id.value, reason, where});
+}
+
+void StageContext::SkipFrame(FrameId id, const std::string& reason, const std::string& where) {
+  RecordSkip(id, reason, where);
+  std::lock_guard lock(mutex_);
+  summary_.warnings.push_back(where.empty() ? fmt::format("frame {} skipped: {}", id.value, reason)
+                                            : fmt::format("frame {} skipped: {}: {}", id.value, where, reason));
 }
 
 void StageContext::Warn(std::string message) {

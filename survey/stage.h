@@ -44,6 +44,14 @@ struct StageInfo {
   bool per_frame = false;  ///< caches per frame (resumable mid-stage)
 };
 
+/// A frame a stage could not process and left out, with why (InputError message and location).
+struct SkippedFrame {
+  int64_t frame = 0;   ///< frame id
+  std::string reason;  ///< e.g. "truncated PNG (no IEND chunk)"; also the key of skip_reasons
+  std::string where;   ///< the file (and line/byte) at fault, when known
+  bool operator<(const SkippedFrame& o) const { return frame < o.frame; }
+};
+
 /// Counts, warnings and timings of one stage run; goes into manifest.json.
 struct StageSummary {
   nlohmann::json counts = nlohmann::json::object();     ///< e.g. {"frames": 40, "inliers_mean": 812}
@@ -54,6 +62,7 @@ struct StageSummary {
   int64_t frames_reused = 0;    ///< found finished in the cache (resume)
   int64_t frames_skipped = 0;   ///< failed and skipped (reasons below)
   std::map<std::string, int64_t> skip_reasons;
+  std::vector<SkippedFrame> skipped;  ///< every skipped frame by id (sorted in ToJson)
 
   nlohmann::json ToJson() const;
   /// Inverse of ToJson (reads a cached run's marker).
@@ -93,8 +102,12 @@ class StageContext {
   /// parallel. `fn` writes into tmp_dir, which is renamed to FrameDir(id) when
   /// it returns, so a killed run resumes without redoing finished frames.
   /// With `skip_failed`, a frame whose fn throws InputError is recorded as
-  /// skipped (reason counted) instead of failing the stage.
+  /// skipped (SkipFrame) instead of failing the stage.
   void ForEachFrame(const std::vector<FrameRecord>& frames, const FrameFn& fn, bool skip_failed);
+
+  /// Records that frame `id` was left out and why (counted, listed by id in the summary,
+  /// manifest.json and `roadsurvey status`). For stages that walk frames themselves.
+  void SkipFrame(FrameId id, const std::string& reason, const std::string& where = "");
 
   void Warn(std::string message);
   void Count(const std::string& name, double value);
@@ -102,6 +115,9 @@ class StageContext {
   StageSummary& summary() { return summary_; }
 
  private:
+  // Counts and lists a skip (no warning: a skip found in the cache was warned about when it happened).
+  void RecordSkip(FrameId id, const std::string& reason, const std::string& where);
+
   std::string stage_name_;
   const SurveyFile& survey_;
   std::filesystem::path out_dir_;

@@ -193,7 +193,7 @@ TEST_F(PipelineE2E, CorruptFrameIsSkippedAndCounted) {
   const auto ingest = ReadJson(copy / "out" / "manifest.json")["stages"]["ingest"];
   EXPECT_EQ(ingest["frames"]["skipped"], 1);
   EXPECT_EQ(ingest["frames"]["skip_reasons"].size(), 1u);
-  EXPECT_NE(r.output.find("skipped 1x"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("skipped frame 5: truncated PNG"), std::string::npos) << r.output;
   EXPECT_FALSE(fs::exists(copy / "out" / "disparity" / "000005")) << "downstream stages never see the bad frame";
   EXPECT_TRUE(fs::exists(copy / "out" / "disparity" / "000006"));
 }

@@ -124,6 +124,14 @@ cv::Size FirstImageSize(const std::vector<StereoFrame>& frames, Sink* sink) {
   return size;
 }
 
+// A listed frame whose image file is missing stays listed: ingest skips it by id and reason,
+// like a corrupt image, so one lost file costs one frame, not the survey.
+void WarnMissingImages(const StereoFrame& f, const InputLocation& left_where, const InputLocation& right_where,
+                       Sink* sink) {
+  for (const auto& [p, w] : {std::pair{&f.left, &left_where}, std::pair{&f.right, &right_where}})
+    if (!fs::is_regular_file(*p)) sink->Warning(*w, "image " + p->string() + " does not exist: the frame is skipped");
+}
+
 // ---- plain: left/<name>, right/<name>, timestamps.csv (filename,t_ns), calibration.yaml ----
 
 StereoSource OpenPlain(const fs::path& root, Sink* sink) {
@@ -161,13 +169,8 @@ StereoSource OpenPlain(const fs::path& root, Sink* sink) {
         continue;
       }
       StereoFrame f{t_ns, root / "left" / name, root / "right" / name, where};
-      bool ok = true;
-      for (const fs::path* p : {&f.left, &f.right})
-        if (!fs::is_regular_file(*p)) {
-          sink->Error(where, "image " + p->string() + " does not exist");
-          ok = false;
-        }
-      if (ok) frames.push_back(std::move(f));
+      WarnMissingImages(f, where, where, sink);
+      frames.push_back(std::move(f));
     }
   }
   // Images nobody listed are probably a mistake (a truncated timestamps.csv).
@@ -182,8 +185,8 @@ StereoSource OpenPlain(const fs::path& root, Sink* sink) {
   if (fs::is_directory(root / "left") && fs::is_directory(root / "right")) {
     const size_t nl = ListImages(root / "left").size(), nr = ListImages(root / "right").size();
     if (nl != nr)
-      sink->Error(InputLocation::File(root.string()),
-                  "left/ holds " + std::to_string(nl) + " images but right/ holds " + std::to_string(nr));
+      sink->Warning(InputLocation::File(root.string()),
+                    "left/ holds " + std::to_string(nl) + " images but right/ holds " + std::to_string(nr));
   }
   std::optional<StereoCalibration> calib;
   if (fs::exists(root / "calibration.yaml")) sink->Try([&] { calib = ReadCalibrationYaml(root / "calibration.yaml"); });
@@ -199,9 +202,9 @@ StereoSource OpenKittiOdometry(const fs::path& root, Sink* sink) {
   const std::vector<fs::path> lefts = ListImages(ld);
   const size_t nr = fs::is_directory(rd) ? ListImages(rd).size() : 0;
   if (lefts.size() != nr)
-    sink->Error(InputLocation::File(root.string()), ld.filename().string() + "/ holds " + std::to_string(lefts.size()) +
-                                                        " images but " + rd.filename().string() + "/ holds " +
-                                                        std::to_string(nr));
+    sink->Warning(InputLocation::File(root.string()), ld.filename().string() + "/ holds " +
+                                                          std::to_string(lefts.size()) + " images but " +
+                                                          rd.filename().string() + "/ holds " + std::to_string(nr));
   const fs::path times = root / "times.txt";
   std::vector<std::string> lines;
   const bool have_times = fs::exists(times);
@@ -226,10 +229,7 @@ StereoSource OpenKittiOdometry(const fs::path& root, Sink* sink) {
         continue;
       }
     }
-    if (!fs::is_regular_file(f.right)) {
-      sink->Error(InputLocation::File(f.right.string()), "right image missing");
-      continue;
-    }
+    WarnMissingImages(f, f.where, InputLocation::File(f.right.string()), sink);
     frames.push_back(std::move(f));
   }
   std::optional<StereoCalibration> calib;
@@ -258,8 +258,8 @@ StereoSource OpenKittiRaw(const fs::path& root, Sink* sink) {
   const std::vector<fs::path> lefts = ListImages(ld);
   const size_t nr = fs::is_directory(rd) ? ListImages(rd).size() : 0;
   if (lefts.size() != nr)
-    sink->Error(InputLocation::File(root.string()), "image_02/data holds " + std::to_string(lefts.size()) +
-                                                        " images but image_03/data holds " + std::to_string(nr));
+    sink->Warning(InputLocation::File(root.string()), "image_02/data holds " + std::to_string(lefts.size()) +
+                                                          " images but image_03/data holds " + std::to_string(nr));
   for (const fs::path& l : lefts) {
     int64_t index;
     if (!ParseInt64(l.stem().string(), &index) || index < 0) {
@@ -277,10 +277,7 @@ StereoSource OpenKittiRaw(const fs::path& root, Sink* sink) {
       sink->Error(where, "'" + Trim(lines[static_cast<size_t>(index)]) + "' is not 'YYYY-MM-DD hh:mm:ss.fffffffff'");
       continue;
     }
-    if (!fs::is_regular_file(f.right)) {
-      sink->Error(InputLocation::File(f.right.string()), "right image missing");
-      continue;
-    }
+    WarnMissingImages(f, f.where, InputLocation::File(f.right.string()), sink);
     frames.push_back(std::move(f));
   }
   std::optional<StereoCalibration> calib;
@@ -348,13 +345,8 @@ StereoSource OpenEuroc(const fs::path& root, Sink* sink) {
       continue;
     }
     StereoFrame f{t, mav0 / "cam0" / "data" / v.first, mav0 / "cam1" / "data" / it->second.first, v.second};
-    bool ok = true;
-    for (const auto& [p, w] : {std::pair{&f.left, v.second}, std::pair{&f.right, it->second.second}})
-      if (!fs::is_regular_file(*p)) {
-        sink->Error(w, "image " + p->string() + " does not exist");
-        ok = false;
-      }
-    if (ok) frames.push_back(std::move(f));
+    WarnMissingImages(f, v.second, it->second.second, sink);
+    frames.push_back(std::move(f));
   }
   std::optional<StereoCalibration> calib;
   if (fs::exists(mav0 / "cam0" / "sensor.yaml") && fs::exists(mav0 / "cam1" / "sensor.yaml"))

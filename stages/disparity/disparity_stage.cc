@@ -173,6 +173,22 @@ cv::Mat LoadPair(const FrameRecord& f, cv::Mat* right) {
   return left;
 }
 
+// The temporal prior: the road model fitted on `previous`'s own pair, if reliable. A previous
+// frame whose images cannot be read gives no prior (this frame is computed without one), so a
+// bad frame is skipped alone and does not take the next good frame with it.
+std::optional<RoadModel> PriorFromFrame(const FrameRecord& previous, const RoadFitOptions& road) {
+  cv::Mat prev_right, prev_left;
+  try {
+    prev_left = LoadPair(previous, &prev_right);
+  } catch (const InputError&) {
+    return std::nullopt;
+  }
+  const auto samples = MatchSparseDisparities(prev_left, prev_right, road);
+  const RoadModel m = FitRoadModel(samples, prev_left.cols, prev_left.rows, road);
+  if (!m.reliable) return std::nullopt;
+  return m;
+}
+
 nlohmann::json RoadModelJson(const RoadModel& m, const DisparityResult& r, double delta_px) {
   return {{"a0", m.a0},
           {"a1", m.a1},
@@ -249,13 +265,8 @@ void DisparityStage::Run(StageContext& ctx, const DisparityStageOptions& o) cons
         // The prior is fitted from the previous frame's own pair, so every frame's
         // result is independent of processing order (parallel, resumable, cacheable).
         std::optional<RoadModel> prior;
-        if (o.temporal_prior && o.params.method == DisparityMethod::kGptSgm && previous.count(f.id.value)) {
-          cv::Mat prev_right;
-          const cv::Mat prev_left = LoadPair(*previous[f.id.value], &prev_right);
-          const auto samples = MatchSparseDisparities(prev_left, prev_right, o.params.road);
-          const RoadModel m = FitRoadModel(samples, prev_left.cols, prev_left.rows, o.params.road);
-          if (m.reliable) prior = m;
-        }
+        if (o.temporal_prior && o.params.method == DisparityMethod::kGptSgm && previous.count(f.id.value))
+          prior = PriorFromFrame(*previous[f.id.value], o.params.road);
         DisparityParams params = o.params;
         params.camera_focal_px = calib.left.fx;
         const DisparityResult r = ComputeDisparity(left, right, params, prior ? &*prior : nullptr);

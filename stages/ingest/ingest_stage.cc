@@ -37,6 +37,17 @@ void CheckFrameSize(const cv::Mat& image, const CameraIntrinsics& cam, const fs:
                                                                      image.cols, image.rows, cam.width, cam.height));
 }
 
+// A frame whose image file is gone is skipped like a corrupt one (the source lists it with a
+// warning), so one lost file costs one frame, not the survey.
+void RequireImageFiles(const FrameRecord& f) {
+  for (const auto& [path, side] : {std::pair{&f.left, "left"}, std::pair{&f.right, "right"}})
+    if (!fs::is_regular_file(*path))
+      throw InputError(InputLocation::File(path->string()), fmt::format("{} image missing", side));
+}
+
+// ingest.json's list of the frames left out, by id, with the reason and the file at fault.
+nlohmann::json SkippedFramesJson(const StageSummary& summary) { return summary.ToJson()["frames"]["skipped_frames"]; }
+
 int64_t Seconds(double s) { return static_cast<int64_t>(std::llround(s * 1e9)); }
 
 // The frame list downstream stages read: skipped frames are left out (ids keep their values);
@@ -152,6 +163,7 @@ void IngestStage::Run(StageContext& ctx, const IngestOptions& o) const {
     frames.push_back({FrameId{static_cast<int64_t>(i)}, f.t_ns, f.left, f.right});
   }
   ctx.Time("list", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  ctx.frame_selection().RequireSelects(static_cast<int64_t>(frames.size()), survey.path.string());
 
   // Per frame: decode (and rectify) both images. Rectified pairs are written
   // into the frame's folder; already rectified sources are referenced in place.
@@ -159,6 +171,7 @@ void IngestStage::Run(StageContext& ctx, const IngestOptions& o) const {
       frames,
       [&](const FrameRecord& f, const fs::path& tmp) {
         FrameOutcome out;
+        RequireImageFiles(f);
         if (!o.check_images && !raw) return out;
         const cv::Mat left = LoadImageRaw(f.left), right = LoadImageRaw(f.right);
         CheckFrameSize(left, calib.left, f.left);
@@ -181,6 +194,7 @@ void IngestStage::Run(StageContext& ctx, const IngestOptions& o) const {
                            {"frames_folder", frames_path.string()},
                            {"frames_listed", frames.size()},
                            {"frames_usable", good.size()},
+                           {"skipped_frames", SkippedFramesJson(ctx.summary())},
                            {"calibration",
                             {{"source", calib.source_path},
                              {"raw", raw},

@@ -3,6 +3,8 @@
 #include <GeographicLib/LocalCartesian.hpp>
 #include <fmt/format.h>
 
+#include <deque>
+
 #include <chrono>
 #include <sstream>
 
@@ -137,6 +139,19 @@ std::vector<std::optional<PosePrior>> MakePriors(const std::vector<FrameRecord>&
   return out;
 }
 
+// Reads a frame's pair; a frame whose images are missing or unreadable is skipped (by id and
+// reason, see StageContext::SkipFrame) and the trajectory goes on without it.
+bool LoadFrameOrSkip(StageContext& ctx, const FrameRecord& f, cv::Mat* left, cv::Mat* right) {
+  try {
+    *left = LoadGray8(f.left);
+    *right = LoadGray8(f.right);
+    return true;
+  } catch (const InputError& e) {
+    ctx.SkipFrame(f.id, e.message(), e.where().ToString());
+    return false;
+  }
+}
+
 void WriteMap(const fs::path& dir, const SlamMap& map) {
   fs::create_directories(dir);
   std::ostringstream kf, pts;
@@ -210,20 +225,13 @@ void SlamStage::Run(StageContext& ctx, const SlamStageOptions& o) const {
   status << "frame_id,t_ns,status,position,segment,features,stereo_features,inliers,keyframe\n";
   std::map<std::string, int> by_status;
   // Frame i+1's features are extracted while frame i is tracked (o.slam.parallel; same results):
-  // Push returns the previous frame's result, Flush the last one.
+  // Push returns the result of an earlier pushed frame, Flush the last one; `pushed` holds the
+  // frames whose results are still to come, in order.
   SlamPipeline pipeline(&slam, o.slam.parallel);
-  auto next = [&](size_t i) -> std::optional<FrameResult> {
-    if (i < frames.size())
-      return pipeline.Push(frames[i].t_ns, LoadGray8(frames[i].left), LoadGray8(frames[i].right), priors[i]);
-    return pipeline.Flush();
-  };
-  const size_t lag = o.slam.parallel ? 1 : 0;
-  for (size_t k = 0; k < frames.size() + lag; ++k) {
-    // Images are read one frame at a time: memory stays flat however long the survey.
-    const std::optional<FrameResult> tracked = next(k);
-    if (!tracked) continue;
-    const FrameResult& r = *tracked;
-    const auto& f = frames[k - lag];
+  std::deque<size_t> pushed;
+  auto record = [&](const FrameResult& r) {
+    const auto& f = frames[pushed.front()];
+    pushed.pop_front();
     const char* position = r.status != FrameStatus::kPriorOnly ? "visual"
                            : r.gnss_weight >= 0.5              ? "gnss"
                                                                : "motion-model";
@@ -231,7 +239,20 @@ void SlamStage::Run(StageContext& ctx, const SlamStageOptions& o) const {
                           r.features, r.stereo_features, r.inliers, r.keyframe ? 1 : 0);
     ++by_status[ToString(r.status)];
     ctx.progress().Advance();
+  };
+  int64_t skipped = 0;
+  for (size_t i = 0; i < frames.size(); ++i) {
+    // Images are read one frame at a time: memory stays flat however long the survey.
+    cv::Mat left, right;
+    if (!LoadFrameOrSkip(ctx, frames[i], &left, &right)) {
+      ++skipped;
+      ctx.progress().Advance();
+      continue;
+    }
+    pushed.push_back(i);
+    if (const auto r = pipeline.Push(frames[i].t_ns, left, right, priors[i])) record(*r);
   }
+  if (const auto r = pipeline.Flush()) record(*r);
   ctx.progress().Finish();
   const SlamResult result = slam.Finish();
 
@@ -241,7 +262,7 @@ void SlamStage::Run(StageContext& ctx, const SlamStageOptions& o) const {
   WriteMap(ctx.out_dir() / "map", result.map);
   const auto& s = result.stats;
   ctx.summary().frames_total = static_cast<int64_t>(frames.size());
-  ctx.summary().frames_computed = static_cast<int64_t>(frames.size());
+  ctx.summary().frames_computed = static_cast<int64_t>(frames.size()) - skipped;
   for (const auto& [k, v] : by_status) ctx.Count("frames_" + k, v);
   ctx.Count("keyframes", s.keyframes);
   ctx.Count("map_points", s.map_points);

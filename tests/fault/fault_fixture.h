@@ -11,6 +11,7 @@
 #include <chrono>
 #include <filesystem>
 #include <map>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -181,6 +182,30 @@ class FaultTest : public ::testing::Test {
   }
 
   static nlohmann::json Manifest(const fault_fs::path& out) { return ReadJson(out / "manifest.json"); }
+
+  /// A fresh copy of the simulated survey folder (without outputs) to damage or reconfigure;
+  /// returns its survey file.
+  static fault_fs::path CopySurvey(const std::string& name) {
+    const fault_fs::path copy = root_ / name;
+    fault_fs::remove_all(copy);
+    fault_fs::copy(root_ / "survey", copy, fault_fs::copy_options::recursive);
+    return copy / "survey.json";
+  }
+
+  /// `roadsurvey run` of another survey file; `out` empty: the survey file's own "output".
+  static ProgramResult RunSurveyFile(const fault_fs::path& survey_file, const fault_fs::path& out,
+                                     const std::string& extra = "") {
+    const std::string output = out.empty() ? std::string() : " --output " + out.string();
+    return RunProgramWith("", "run " + survey_file.string() + output + " --progress quiet " + extra);
+  }
+
+  /// Poses in a TUM trajectory (lines that are neither empty nor comments).
+  static int TumPoses(const fault_fs::path& file) {
+    std::istringstream in(Slurp(file));
+    int n = 0;
+    for (std::string line; std::getline(in, line);) n += !line.empty() && line[0] != '#';
+    return n;
+  }
 
   static fault_fs::path root_;
 };
