@@ -54,6 +54,12 @@ std::vector<FrameRecord> UsableFrames(const StageContext& ctx, const std::vector
   return good;
 }
 
+// The frames as a run lists them; `run`'s up-front check lists them the same way, so whatever
+// this tolerates (or rejects) the check does too.
+StereoSource ListFrames(const SurveyFile& survey) {
+  return OpenStereoSource(*survey.InputPath("frames"), survey.inputs["frames"].value("layout", std::string("auto")));
+}
+
 // Frame times (camera clock) of every listed frame: the flight-log checks see the same frames in
 // `validate` and `run`, whichever images later turn out unreadable.
 std::vector<int64_t> CameraTimes(const StereoSource& source) {
@@ -118,8 +124,7 @@ void IngestStage::Run(StageContext& ctx, const IngestOptions& o) const {
   const SurveyFile& survey = ctx.survey();
   const auto t0 = std::chrono::steady_clock::now();
   const fs::path frames_path = *survey.InputPath("frames");
-  const StereoSource source =
-      OpenStereoSource(frames_path, survey.inputs["frames"].value("layout", std::string("auto")));
+  const StereoSource source = ListFrames(survey);
   for (const auto& w : source.warnings().items()) ctx.Warn(w.ToString());
   if (source.timestamps_synthesized()) ctx.Warn("frame times synthesized from the nominal frame rate");
 
@@ -233,7 +238,8 @@ void IngestStage::ValidateInputs(const SurveyFile& survey, const IngestOptions& 
   const std::string layout = survey.inputs["frames"].value("layout", std::string("auto"));
   std::optional<StereoSource> source;
   try {
-    source = OpenStereoSource(frames_path, layout, &problems);
+    // validate lists every listing problem; run's check stops where the run's own listing would.
+    source = depth == ValidationDepth::kFull ? OpenStereoSource(frames_path, layout, &problems) : ListFrames(survey);
   } catch (const InputError& e) {
     problems.Add(e);
   }
