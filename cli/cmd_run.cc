@@ -52,6 +52,7 @@ Command RunCommand() {
                 for (const auto& [reason, n] : r.summary.skip_reasons) fmt::print("    skipped {}x: {}\n", n, reason);
                 if (!r.error.empty()) fmt::print("    error: {}\n", r.error);
               }
+              if (!report.error.empty()) fmt::print("error: {}\n", report.error);
               fmt::print("\nOutputs in {}\n", survey.output_dir.string());
               for (const auto& [name, path] : report.published) fmt::print("  {}\n", name);
               fmt::print("  manifest.json (what ran, keys, counts, warnings, options)\n");

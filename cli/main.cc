@@ -1,7 +1,9 @@
 // roadsurvey: offline photogrammetric road-damage survey processor.
-// Exit codes: 0 success, 1 processing failure, 2 bad input or usage.
+// Exit codes: 0 success, 1 processing or environment failure (write error, disk full, output
+// folder in use), 2 bad input or usage.
 #include <fmt/format.h>
 #include <malloc.h>
+#include <signal.h>
 #include <spdlog/spdlog.h>
 
 #include "cli/command.h"
@@ -30,6 +32,9 @@ int main(int argc, char** argv) {
   // the heap instead, freed pages are reused (the process keeps its peak heap).
   mallopt(M_MMAP_THRESHOLD, 256 << 20);
   mallopt(M_TRIM_THRESHOLD, 512 << 20);
+  // Over a file-size limit (ulimit -f) the kernel would kill us with SIGXFSZ before the write
+  // could fail; ignored, the write fails with EFBIG and the checked writer names the file.
+  ::signal(SIGXFSZ, SIG_IGN);
   spdlog::set_pattern("[%H:%M:%S] %^%l%$ %v");
   StageRegistry registry;
   RegisterBuiltinStages(registry);

@@ -8,6 +8,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "formats/checked_file.h"
+
 namespace rs {
 
 /// A byte string built field by field, little-endian (every host we build for is
@@ -41,15 +43,11 @@ class LittleEndianBytes {
   std::string s_;
 };
 
-/// Opens `path` for binary writing, lets `write` fill the stream, and throws
-/// std::runtime_error naming the file when it cannot be opened or written.
+/// Lets `write` fill a stream, then writes it to `path` with the checked writer; throws
+/// WriteError naming the file when it cannot be written.
 template <typename WriteFn>
 void WriteBinaryFile(const std::filesystem::path& path, WriteFn&& write) {
-  std::ofstream out(path, std::ios::binary);
-  if (!out) throw std::runtime_error("cannot open " + path.string() + " for writing");
-  write(out);
-  out.close();
-  if (!out) throw std::runtime_error("cannot write " + path.string());
+  WriteStreamChecked(path, std::forward<WriteFn>(write));
 }
 
 }  // namespace rs

@@ -6,6 +6,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "formats/checked_file.h"
 #include "formats/input_error.h"
 
 namespace rs {
@@ -63,10 +64,7 @@ void WriteFrameIndex(std::ostream& out, const std::vector<FrameRecord>& frames) 
 }
 
 void WriteFrameIndex(const std::filesystem::path& path, const std::vector<FrameRecord>& frames) {
-  std::ofstream out(path);
-  if (!out) throw InputError(InputLocation::File(path.string()), "cannot open for writing");
-  WriteFrameIndex(out, frames);
-  if (!out.flush()) throw InputError(InputLocation::File(path.string()), "write failed");
+  WriteStreamChecked(path, [&](std::ostream& out) { WriteFrameIndex(out, frames); });
 }
 
 std::vector<FrameRecord> ReadFrameIndex(std::istream& in, const std::string& path) {

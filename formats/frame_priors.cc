@@ -7,6 +7,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "formats/checked_file.h"
 #include "formats/input_error.h"
 
 namespace rs {
@@ -67,9 +68,7 @@ void WriteFramePriors(std::ostream& out, const std::vector<FramePrior>& priors) 
 }
 
 void WriteFramePriors(const std::filesystem::path& path, const std::vector<FramePrior>& priors) {
-  std::ofstream out(path);
-  if (!out) throw InputError(InputLocation::File(path.string()), "cannot open for writing");
-  WriteFramePriors(out, priors);
+  WriteStreamChecked(path, [&](std::ostream& out) { WriteFramePriors(out, priors); });
 }
 
 std::vector<FramePrior> ReadFramePriors(std::istream& in, const std::string& path) {

@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "formats/checked_file.h"
 #include "formats/input_error.h"
 
 namespace rs {
@@ -22,17 +23,17 @@ fs::path TemporarySibling(const fs::path& final_path) {
 void WriteFileAtomic(const fs::path& path, std::string_view content) {
   if (path.has_parent_path()) fs::create_directories(path.parent_path());
   const fs::path tmp = TemporarySibling(path);
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw InputError(InputLocation::File(tmp.string()), "cannot open for writing");
-    out.write(content.data(), static_cast<std::streamsize>(content.size()));
-    if (!out.flush()) {
-      std::error_code ec;
-      fs::remove(tmp, ec);
-      throw InputError(InputLocation::File(path.string()), "write failed (disk full?)");
-    }
+  try {
+    WriteFileChecked(tmp, content);
+  } catch (const WriteError& e) {
+    throw WriteError(path, e.reason());  // name the file the user knows, not the temporary
   }
-  fs::rename(tmp, path);
+  std::error_code ec;
+  fs::rename(tmp, path, ec);
+  if (ec) {
+    fs::remove(tmp, ec);
+    throw WriteError(path, "cannot rename into place: " + ec.message());
+  }
 }
 
 void WriteJsonAtomic(const fs::path& path, const nlohmann::json& j) { WriteFileAtomic(path, j.dump(2) + "\n"); }
@@ -75,21 +76,6 @@ void CommitDirectory(const fs::path& tmp_dir, const fs::path& final_dir) {
     throw std::runtime_error(
         fmt::format("cannot commit {} -> {}: {}", tmp_dir.string(), final_dir.string(), ec.message()));
   }
-}
-
-void PublishFile(const fs::path& target, const fs::path& link) {
-  const fs::path tmp = TemporarySibling(link);
-  std::error_code ec;
-  if (fs::is_directory(target)) {
-    fs::copy(target, tmp, fs::copy_options::recursive | fs::copy_options::create_hard_links, ec);
-    if (ec) fs::copy(target, tmp, fs::copy_options::recursive);
-    fs::remove_all(link, ec);
-    fs::rename(tmp, link);
-    return;
-  }
-  fs::create_hard_link(target, tmp, ec);
-  if (ec) fs::copy_file(target, tmp, fs::copy_options::overwrite_existing);
-  fs::rename(tmp, link);
 }
 
 }  // namespace rs

@@ -10,7 +10,8 @@
 
 namespace rs {
 
-/// Writes `content` to `path` atomically; creates parent folders.
+/// Writes `content` to `path` atomically with the checked writer; creates parent folders.
+/// Throws WriteError naming `path` when the disk is full or the write fails.
 void WriteFileAtomic(const std::filesystem::path& path, std::string_view content);
 
 /// Pretty-printed JSON, atomically.
@@ -19,14 +20,12 @@ void WriteJsonAtomic(const std::filesystem::path& path, const nlohmann::json& j)
 /// Reads a JSON file; throws InputError with line/column on parse errors.
 nlohmann::json ReadJsonFile(const std::filesystem::path& path);
 
-/// A unique sibling name for temporary output next to `final_path`.
+/// A unique sibling name for temporary output next to `final_path`: ".<name>.tmp-<pid>-<n>"
+/// (IsTemporaryName recognises it; a run removes those left by killed runs).
 std::filesystem::path TemporarySibling(const std::filesystem::path& final_path);
 
 /// Renames a finished temporary folder into place. If `final_dir` already
 /// exists (another worker finished it first), the temporary one is removed.
 void CommitDirectory(const std::filesystem::path& tmp_dir, const std::filesystem::path& final_dir);
-
-/// Makes `link` a copy of `target` (hard link when possible, else copy), replacing it atomically.
-void PublishFile(const std::filesystem::path& target, const std::filesystem::path& link);
 
 }  // namespace rs

@@ -3,11 +3,15 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include <unistd.h>
+
 #include <chrono>
 #include <thread>
 
 #include "survey/atomic_file.h"
 #include "survey/hash.h"
+#include "survey/output_lock.h"
+#include "survey/publish.h"
 #include "survey/version.h"
 
 namespace rs {
@@ -71,13 +75,67 @@ void WriteManifest(const fs::path& path, const SurveyFile& survey, const RunRequ
                       {"run",
                        {{"started_utc", started},
                         {"finished_utc", finished ? UtcNow() : ""},
+                        {"pid", static_cast<int64_t>(::getpid())},  // `status` tells a killed run from a live one
+                        {"host", LockHolder::Self(started).host},
                         {"state", finished ? (report.exit_code == 0 ? "succeeded" : "failed") : "running"},
                         {"frames", request.frames.ToString()},
                         {"rerun_from", request.rerun_from.value_or("")},
                         {"only", request.only.value_or("")}}},
                       {"stages", stages},
                       {"published", report.published}};
+  if (!report.error.empty()) j["error"] = report.error;
   WriteJsonAtomic(path, j);
+}
+
+// Takes the output folder for this run and clears what killed runs left there.
+OutputLock TakeOutputFolder(const fs::path& output_dir, const std::string& started) {
+  OutputLock lock = OutputLock::Acquire(output_dir, LockHolder::Self(started));
+  if (const auto& previous = lock.taken_over_from())
+    spdlog::warn("the previous run ({}) ended without releasing the output folder (killed?): taking it over",
+                 previous->ToString());
+  if (const int64_t n = RemoveOrphanTemporaries(output_dir))
+    spdlog::info("removed {} unfinished temporary file(s) or folder(s) of interrupted runs", n);
+  return lock;
+}
+
+// A failure outside the stages (a full disk while publishing or writing the manifest) fails the
+// run (exit 1) but still lets it finish its report.
+void RecordRunError(RunReport& report, const std::string& message) {
+  spdlog::error("{}", message);
+  if (report.error.empty()) report.error = message;
+  report.exit_code = std::max(report.exit_code, 1);
+}
+
+void TryWriteManifest(const SurveyFile& survey, const RunRequest& request, const std::string& started,
+                      RunReport& report, bool finished) {
+  try {
+    WriteManifest(report.manifest_path, survey, request, started, report, finished);
+  } catch (const std::exception& e) {
+    RecordRunError(report, e.what());
+    if (finished) {
+      try {  // record the failure itself when there is still room for it
+        WriteManifest(report.manifest_path, survey, request, started, report, finished);
+      } catch (const std::exception&) {}
+    }
+  }
+}
+
+// Publishes a stage's results under their stable names; a failure fails the stage (exit 1), not
+// the cache.
+void PublishStage(const StageInfo& info, const fs::path& dir, const SurveyFile& survey, StageRunRecord& rec,
+                  RunReport& report) {
+  for (const auto& pub : info.published) {
+    const fs::path from = dir / pub.from;
+    if (!fs::exists(from)) continue;
+    try {
+      PublishFile(from, survey.output_dir / pub.to);
+      report.published[pub.to] = from.string();
+    } catch (const std::exception& e) {
+      rec.error = e.what();
+      rec.exit_code = std::max(rec.exit_code, 1);
+      spdlog::error("{}: {}", info.name, rec.error);
+    }
+  }
 }
 
 }  // namespace
@@ -156,10 +214,10 @@ RunReport RunSurvey(const StageRegistry& registry, const SurveyFile& survey, con
       request.rerun_from ? graph.Downstream(*request.rerun_from) : std::set<std::string>{};
   const int threads = request.threads > 0 ? request.threads : std::max(1u, std::thread::hardware_concurrency());
 
-  fs::create_directories(survey.output_dir);
+  const std::string started = UtcNow();
+  const OutputLock lock = TakeOutputFolder(survey.output_dir, started);
   RunReport report;
   report.manifest_path = survey.output_dir / "manifest.json";
-  const std::string started = UtcNow();
   std::set<std::string> unavailable;  // stages whose outputs this run cannot provide
 
   for (const Stage* stage : graph.order()) {
@@ -210,13 +268,13 @@ RunReport RunSurvey(const StageRegistry& registry, const SurveyFile& survey, con
       // nothing is lost if it fails.
       const bool swap = forced.count(info.name) && fs::exists(dir);
       const fs::path run_dir = swap ? fs::path(dir.string() + ".rerun") : dir;
-      if (swap) fs::remove_all(run_dir);
-      fs::create_directories(run_dir);
       Progress progress(request.progress);
       StageContext ctx(info.name, survey, run_dir, input_dirs, request.frames, threads, progress);
       spdlog::info("{}: running (key {})", info.name, rec.key);
       const auto t0 = std::chrono::steady_clock::now();
       try {
+        if (swap) fs::remove_all(run_dir);
+        fs::create_directories(run_dir);  // on a full disk this fails too: a failed stage, not a crash
         stage->Run(ctx, rec.options);
         rec.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         rec.summary = ctx.summary();
@@ -257,19 +315,13 @@ RunReport RunSurvey(const StageRegistry& registry, const SurveyFile& survey, con
     }
 
     if (rec.status == StageStatus::kComputed || rec.status == StageStatus::kReused ||
-        (rec.status == StageStatus::kNotSelected && rec.cached)) {
-      for (const auto& pub : info.published) {
-        const fs::path from = dir / pub.from;
-        if (!fs::exists(from)) continue;
-        PublishFile(from, survey.output_dir / pub.to);
-        report.published[pub.to] = from.string();
-      }
-    }
+        (rec.status == StageStatus::kNotSelected && rec.cached))
+      PublishStage(info, dir, survey, rec, report);
     report.exit_code = std::max(report.exit_code, rec.exit_code);
     report.stages.push_back(std::move(rec));
-    WriteManifest(report.manifest_path, survey, request, started, report, false);
+    TryWriteManifest(survey, request, started, report, false);
   }
-  WriteManifest(report.manifest_path, survey, request, started, report, true);
+  TryWriteManifest(survey, request, started, report, true);
   return report;
 }
 

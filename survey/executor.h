@@ -55,6 +55,7 @@ struct RunReport {
   std::map<std::string, std::string> published;  ///< top-level name -> cache path
   std::filesystem::path manifest_path;
   int exit_code = 0;  ///< 0 ok, 1 processing failure, 2 bad input
+  std::string error;  ///< a failure outside the stages (publishing, the manifest), exit code 1
   const StageRunRecord* Find(const std::string& name) const;
 };
 

@@ -6,6 +6,7 @@
 
 #include <atomic>
 
+#include "formats/checked_file.h"
 #include "survey/atomic_file.h"
 
 namespace rs {
@@ -123,6 +124,17 @@ void StageContext::ForEachFrame(const std::vector<FrameRecord>& frames, const Fr
         ++summary_.frames_skipped;
         ++summary_.skip_reasons[e.message()];
         summary_.warnings.push_back(fmt::format("frame {} skipped: {}", frame.id.value, e.what()));
+      } catch (const WriteError& e) {
+        // Name the file as it would have been committed, not its temporary folder.
+        std::error_code ec;
+        fs::remove_all(tmp_dir, ec);
+        const fs::path rel = e.path().lexically_relative(tmp_dir);
+        std::lock_guard lock(mutex_);
+        if (!first_error)
+          first_error = std::make_exception_ptr(
+              rel.empty() || *rel.begin() == ".." ? e : WriteError(final_dir / rel, e.reason()));
+        stop = true;
+        return;
       } catch (...) {
         std::error_code ec;
         fs::remove_all(tmp_dir, ec);

@@ -10,6 +10,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "formats/checked_file.h"
+#include "formats/image_file.h"
 #include "formats/input_error.h"
 #include "formats/rectified_stereo.h"
 
@@ -33,7 +35,7 @@ void FromKittiDisparity16(const cv::Mat& png16, cv::Mat* d, cv::Mat* valid) {
 }
 
 void WriteKittiDisparityPng(const std::string& path, const cv::Mat& d, const cv::Mat& valid) {
-  if (!cv::imwrite(path, ToKittiDisparity16(d, valid))) throw std::runtime_error("cannot write " + path);
+  WriteImageFile(path, ToKittiDisparity16(d, valid));
 }
 
 cv::Mat ReadKittiDisparityPng(const std::filesystem::path& path, cv::Mat* valid) {
@@ -48,9 +50,7 @@ cv::Mat ReadKittiDisparityPng(const std::filesystem::path& path, cv::Mat* valid)
   return d;
 }
 
-void WriteImageChecked(const std::string& path, const cv::Mat& image) {
-  if (!cv::imwrite(path, image)) throw std::runtime_error("cannot write " + path);
-}
+void WriteImageChecked(const std::string& path, const cv::Mat& image) { WriteImageFile(path, image); }
 
 void WriteDisparityPointCloud(const std::string& path, const cv::Mat& disparity, const cv::Mat& valid,
                               const cv::Mat& gray, const RectifiedStereo& camera) {
@@ -69,12 +69,13 @@ void WriteDisparityPointCloud(const std::string& path, const cv::Mat& disparity,
                         static_cast<float>(z), gray.at<uint8_t>(v, u)});
     }
   }
-  std::ofstream out(path, std::ios::binary);
-  out << "ply\nformat binary_little_endian 1.0\ncomment roadsurvey disparity point cloud, left camera frame, metres\n"
-      << "element vertex " << points.size() << "\nproperty float x\nproperty float y\nproperty float z\n"
-      << "property uchar intensity\nend_header\n";
-  out.write(reinterpret_cast<const char*>(points.data()), static_cast<std::streamsize>(points.size() * sizeof(Point)));
-  if (!out) throw std::runtime_error("cannot write point cloud " + path);
+  WriteStreamChecked(path, [&](std::ostream& out) {
+    out << "ply\nformat binary_little_endian 1.0\ncomment roadsurvey disparity point cloud, left camera frame, metres\n"
+        << "element vertex " << points.size() << "\nproperty float x\nproperty float y\nproperty float z\n"
+        << "property uchar intensity\nend_header\n";
+    out.write(reinterpret_cast<const char*>(points.data()),
+              static_cast<std::streamsize>(points.size() * sizeof(Point)));
+  });
 }
 
 cv::Mat ColorizeDisparity(const cv::Mat& d, const cv::Mat& valid, double d_min, double d_max) {

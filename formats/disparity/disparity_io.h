@@ -38,7 +38,7 @@ void WriteKittiDisparityPng(const std::string& path, const cv::Mat& disparity, c
 /// missing, cannot be decoded, or is not a single-channel 16-bit image.
 cv::Mat ReadKittiDisparityPng(const std::filesystem::path& path, cv::Mat* valid = nullptr);
 
-/// Writes an image with cv::imwrite (PNG masks, 32-bit float TIFFs); throws std::runtime_error
+/// Writes an image through the checked writer (PNG masks, 32-bit float TIFFs); throws WriteError
 /// naming the file when the encoder or the write fails.
 void WriteImageChecked(const std::string& path, const cv::Mat& image);
 

@@ -8,6 +8,7 @@
 
 #include <fmt/format.h>
 
+#include "formats/checked_file.h"
 #include "formats/input_error.h"
 
 namespace rs::geojson {
@@ -191,11 +192,7 @@ void WriteFeatureCollection(std::ostream& out, const FeatureCollection& collecti
 }
 
 void WriteFeatureCollection(const std::filesystem::path& path, const FeatureCollection& collection) {
-  std::ostringstream ss;
-  WriteFeatureCollection(ss, collection);
-  std::ofstream f(path, std::ios::binary);
-  f << ss.str();
-  if (!f) throw std::runtime_error("cannot write " + path.string());
+  WriteStreamChecked(path, [&](std::ostream& out) { WriteFeatureCollection(out, collection); });
 }
 
 FeatureCollection ReadFeatureCollection(std::istream& in, const std::string& path) {

@@ -7,6 +7,7 @@
 #include <opencv2/core.hpp>
 #include <set>
 
+#include "formats/checked_file.h"
 #include "formats/input_error.h"
 #include "formats/stereo/calibration_check.h"
 #include "formats/stereo/opencv_yaml.h"
@@ -70,11 +71,7 @@ void WriteCalibrationYaml(std::ostream& out, const StereoCalibration& calib) {
 }
 
 void WriteCalibrationYaml(const std::filesystem::path& path, const StereoCalibration& calib) {
-  std::ofstream out(path, std::ios::binary);
-  if (!out) throw InputError(InputLocation::File(path.string()), "cannot create file");
-  WriteCalibrationYaml(out, calib);
-  out.close();
-  if (!out) throw InputError(InputLocation::File(path.string()), "write error");
+  WriteStreamChecked(path, [&](std::ostream& out) { WriteCalibrationYaml(out, calib); });
 }
 
 StereoCalibration ReadCalibrationYaml(std::istream& in, const std::string& path) {

@@ -2,9 +2,12 @@
 
 #include <gtest/gtest.h>
 
+#include <cstring>
 #include <fstream>
+#include <limits>
 #include <opencv2/imgcodecs.hpp>
 
+#include "formats/image_file.h"
 #include "formats/input_error.h"
 
 namespace rs {
@@ -98,6 +101,37 @@ TEST(ImageIo, GarbageAndMissing) {
   std::ofstream{e};
   EXPECT_THROW(LoadGray8(e), InputError);
   EXPECT_THROW(LoadGray8(TempDir() / "nope.png"), InputError);
+}
+
+// The checked image writer (encode to memory, then a checked write) stores every format the
+// pipeline writes exactly: 32-bit float TIFF (NaN kept), 16-bit and 8-bit PNG.
+TEST(ImageFile, RoundTripsExactly) {
+  const fs::path d = TempDir();
+  cv::Mat f32(7, 11, CV_32F);
+  for (int i = 0; i < f32.rows * f32.cols; ++i) f32.at<float>(i) = -3.25f + 0.731f * i;
+  f32.at<float>(2, 3) = std::numeric_limits<float>::quiet_NaN();
+  cv::Mat u16(7, 11, CV_16U), u8c3(7, 11, CV_8UC3);
+  cv::randu(u16, 0, 65535);
+  cv::randu(u8c3, 0, 255);
+  WriteImageFile(d / "f.tiff", f32);
+  WriteImageFile(d / "u16.png", u16);
+  WriteImageFile(d / "c.png", u8c3);
+  const cv::Mat f = cv::imread((d / "f.tiff").string(), cv::IMREAD_UNCHANGED);
+  ASSERT_EQ(f.type(), CV_32F);
+  EXPECT_EQ(std::memcmp(f.data, f32.data, f32.total() * sizeof(float)), 0);  // bit for bit, NaN included
+  EXPECT_EQ(cv::norm(cv::imread((d / "u16.png").string(), cv::IMREAD_UNCHANGED), u16, cv::NORM_INF), 0);
+  EXPECT_EQ(cv::norm(cv::imread((d / "c.png").string(), cv::IMREAD_UNCHANGED), u8c3, cv::NORM_INF), 0);
+}
+
+TEST(ImageFile, UnencodableImageNamesTheFile) {
+  const fs::path p = TempDir() / "x.unknown_extension";
+  try {
+    WriteImageFile(p, cv::Mat(2, 2, CV_8U, cv::Scalar(1)));
+    FAIL() << "expected WriteError";
+  } catch (const WriteError& e) {
+    EXPECT_EQ(e.path(), p);
+  }
+  EXPECT_FALSE(fs::exists(p));
 }
 
 }  // namespace

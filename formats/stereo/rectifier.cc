@@ -9,6 +9,7 @@
 #include <opencv2/imgproc.hpp>
 #include <vector>
 
+#include "formats/checked_file.h"
 #include "formats/input_error.h"
 #include "formats/stereo/calibration_check.h"
 
@@ -114,9 +115,7 @@ void StereoRectifier::Save(const std::filesystem::path& path) const {
       put(m->data, m->total() * m->elemSize());
   const uint64_t h = XXH64(buf.data(), buf.size(), 0);
   put(&h, 8);
-  std::ofstream out(path, std::ios::binary);
-  if (!out.write(buf.data(), static_cast<std::streamsize>(buf.size())))
-    throw InputError(InputLocation::File(path.string()), "cannot write rectification cache");
+  WriteFileChecked(path, std::string_view(buf.data(), buf.size()));
 }
 
 std::optional<StereoRectifier> StereoRectifier::Load(const std::filesystem::path& path, const StereoCalibration& raw,

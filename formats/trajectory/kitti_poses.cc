@@ -4,6 +4,7 @@
 
 #include <fmt/format.h>
 
+#include "formats/checked_file.h"
 #include "formats/input_error.h"
 #include "formats/trajectory/trajectory_text.h"
 
@@ -104,10 +105,7 @@ void WriteKittiPoses(std::ostream& out, const Trajectory& trajectory) {
 }
 
 void WriteKittiPoses(const std::filesystem::path& path, const Trajectory& trajectory) {
-  std::ofstream out(path, std::ios::binary);
-  if (!out) throw InputError(InputLocation::File(path.string()), "cannot create poses file");
-  WriteKittiPoses(out, trajectory);
-  if (!out) throw InputError(InputLocation::File(path.string()), "write failed");
+  WriteStreamChecked(path, [&](std::ostream& out) { WriteKittiPoses(out, trajectory); });
 }
 
 }  // namespace rs

@@ -4,6 +4,7 @@
 
 #include <fmt/format.h>
 
+#include "formats/checked_file.h"
 #include "formats/input_error.h"
 #include "formats/trajectory/timestamp_text.h"
 #include "formats/trajectory/trajectory_text.h"
@@ -56,10 +57,7 @@ void WriteTumTrajectory(std::ostream& out, const Trajectory& trajectory) {
 }
 
 void WriteTumTrajectory(const std::filesystem::path& path, const Trajectory& trajectory) {
-  std::ofstream out(path, std::ios::binary);
-  if (!out) throw InputError(InputLocation::File(path.string()), "cannot create trajectory file");
-  WriteTumTrajectory(out, trajectory);
-  if (!out) throw InputError(InputLocation::File(path.string()), "write failed");
+  WriteStreamChecked(path, [&](std::ostream& out) { WriteTumTrajectory(out, trajectory); });
 }
 
 }  // namespace rs

@@ -5,6 +5,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "formats/disparity/disparity_io.h"
+#include "formats/image_file.h"
 #include "formats/stereo/calibration_yaml.h"
 #include "formats/stereo/image_io.h"
 #include "stages/damage/output/damage_output.h"
@@ -97,11 +98,10 @@ void DamageStage::Run(StageContext& ctx, const DamageStageOptions& o) const {
                                        {"obstacle_points", result.surface.obstacle_points}}}};
         detections.update(DetectionsToJson(result.instances));  // "schema" + "detections"
         WriteJsonAtomic(tmp / "detections.json", detections);
-        if (o.write_overlay)
-          cv::imwrite((tmp / "overlay.png").string(), RenderOverlay(left, result.labels, result.instances));
+        if (o.write_overlay) WriteImageFile(tmp / "overlay.png", RenderOverlay(left, result.labels, result.instances));
         if (o.write_relief) {
-          cv::imwrite((tmp / "transformed.tiff").string(), result.relief.transformed_disparity_px);
-          cv::imwrite((tmp / "depth_below_road_mm.tiff").string(), result.relief.depth_below_mm);
+          WriteImageFile(tmp / "transformed.tiff", result.relief.transformed_disparity_px);
+          WriteImageFile(tmp / "depth_below_road_mm.tiff", result.relief.depth_below_mm);
         }
         FrameOutcome out;
         int potholes = 0, cracks = 0;

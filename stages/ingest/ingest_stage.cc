@@ -6,7 +6,9 @@
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
 
+#include "formats/checked_file.h"
 #include "formats/flight_log/flight_log.h"
+#include "formats/image_file.h"
 #include "formats/flight_log/track_csv.h"
 #include "formats/stereo/calibration_check.h"
 #include "formats/stereo/calibration_readers.h"
@@ -156,9 +158,8 @@ void IngestStage::Run(StageContext& ctx, const IngestOptions& o) const {
         if (raw) {
           cv::Mat left_rect, right_rect;
           rectifier->Rectify(left, right, &left_rect, &right_rect);
-          if (!cv::imwrite((tmp / "left.png").string(), left_rect) ||
-              !cv::imwrite((tmp / "right.png").string(), right_rect))
-            throw std::runtime_error("cannot write rectified images to " + tmp.string());
+          WriteImageFile(tmp / "left.png", left_rect);
+          WriteImageFile(tmp / "right.png", right_rect);
         }
         out.counts["images_checked"] = 2;
         return out;
@@ -186,11 +187,7 @@ void IngestStage::Run(StageContext& ctx, const IngestOptions& o) const {
     const auto t1 = std::chrono::steady_clock::now();
     const auto& log_spec = survey.inputs["flight_log"];
     const FlightTrack track = ReadFlightLog(*log_path, log_spec.value("format", std::string("auto")));
-    std::ofstream(ctx.out_dir() / "track.csv") << [&] {
-      std::ostringstream ss;
-      WriteTrackCsv(ss, track);
-      return ss.str();
-    }();
+    WriteStreamChecked(ctx.out_dir() / "track.csv", [&](std::ostream& out) { WriteTrackCsv(out, track); });
     // The checks `validate` makes, on the same frames: a log it rejects fails here the same way.
     ProblemList log_problems;
     const auto alignment = CheckFlightLog(track, *log_path, log_spec, CameraTimes(source), o, log_problems);

@@ -4,8 +4,9 @@
 #include <fmt/format.h>
 
 #include <chrono>
-#include <fstream>
+#include <sstream>
 
+#include "formats/checked_file.h"
 #include "formats/frame_priors.h"
 #include "formats/stereo/calibration_yaml.h"
 #include "formats/stereo/image_io.h"
@@ -138,7 +139,7 @@ std::vector<std::optional<PosePrior>> MakePriors(const std::vector<FrameRecord>&
 
 void WriteMap(const fs::path& dir, const SlamMap& map) {
   fs::create_directories(dir);
-  std::ofstream kf(dir / "keyframes.txt");
+  std::ostringstream kf, pts;
   kf << "# keyframe_id frame_index t_ns segment  T_cam_world: tx ty tz qx qy qz qw\n";
   for (const auto& k : map.keyframes) {
     if (k.bad) continue;
@@ -147,7 +148,6 @@ void WriteMap(const fs::path& dir, const SlamMap& map) {
     kf << fmt::format("{} {} {} {} {:.9f} {:.9f} {:.9f} {:.12f} {:.12f} {:.12f} {:.12f}\n", k.id, k.frame_index, k.t_ns,
                       k.segment, t.x(), t.y(), t.z(), q.x(), q.y(), q.z(), q.w());
   }
-  std::ofstream pts(dir / "points.txt");
   pts << "# point_id x y z  then per observation: keyframe_id u_px v_px (left image, rectified)\n";
   for (const auto& p : map.points) {
     if (p.bad) continue;
@@ -158,7 +158,8 @@ void WriteMap(const fs::path& dir, const SlamMap& map) {
     }
     pts << '\n';
   }
-  if (!kf || !pts) throw std::runtime_error("cannot write the SLAM map to " + dir.string());
+  WriteFileChecked(dir / "keyframes.txt", kf.view());
+  WriteFileChecked(dir / "points.txt", pts.view());
 }
 
 }  // namespace
@@ -203,7 +204,7 @@ void SlamStage::Run(StageContext& ctx, const SlamStageOptions& o) const {
 
   StereoSlam slam(calib, o.slam);
   ctx.progress().Start("slam", static_cast<int64_t>(frames.size()));
-  std::ofstream status(ctx.out_dir() / "frame_status.csv");
+  std::ostringstream status;  // written once complete, through the checked writer
   // position: how the frame's pose was found - "visual" (tracked or relocalised), "gnss" (lost; placed
   // mostly by the flight log's displacement) or "motion-model" (lost; constant-velocity prediction).
   status << "frame_id,t_ns,status,position,segment,features,stereo_features,inliers,keyframe\n";
@@ -234,6 +235,7 @@ void SlamStage::Run(StageContext& ctx, const SlamStageOptions& o) const {
   ctx.progress().Finish();
   const SlamResult result = slam.Finish();
 
+  WriteFileChecked(ctx.out_dir() / "frame_status.csv", status.view());
   WriteTumTrajectory(ctx.out_dir() / "trajectory.tum", result.frames);
   WriteTumTrajectory(ctx.out_dir() / "keyframes.tum", result.keyframes);
   WriteMap(ctx.out_dir() / "map", result.map);

@@ -84,6 +84,20 @@ inline ProgramResult RunProgramWith(const std::string& prefix, const std::string
   return r;
 }
 
+/// Polls `done` every few milliseconds until it holds or `timeout_s` passes; returns whether it held.
+template <typename Predicate>
+bool WaitUntil(Predicate&& done, double timeout_s = 60) {
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  while (!done()) {
+    if (std::chrono::steady_clock::now() > end) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  return true;
+}
+
+/// Whether a temporary name (TemporaryNames) exists under `dir` right now.
+inline bool HasTemporaryName(const fault_fs::path& dir) { return !TemporaryNames(dir).empty(); }
+
 /// A `roadsurvey` process started in the background (its own process group), output discarded.
 class BackgroundRun {
  public:

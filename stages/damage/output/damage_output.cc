@@ -12,6 +12,9 @@
 #include <fstream>
 #include <stdexcept>
 
+#include "formats/checked_file.h"
+#include "formats/image_file.h"
+
 namespace rs {
 namespace {
 
@@ -25,7 +28,7 @@ nlohmann::json Grade(const SeverityGrade& g) {
 
 void WriteLabelPng(const std::string& path, const cv::Mat& labels) {
   if (labels.type() != CV_16UC1) throw std::invalid_argument("WriteLabelPng: labels must be CV_16U");
-  if (!cv::imwrite(path, labels)) throw std::runtime_error(fmt::format("{}: cannot write label PNG", path));
+  WriteImageFile(path, labels);
 }
 
 cv::Mat RenderOverlay(const cv::Mat& left, const cv::Mat& labels, const std::vector<DamageInstance>& instances) {
@@ -108,10 +111,7 @@ nlohmann::json DetectionsToJson(const std::vector<DamageInstance>& instances) {
 }
 
 void WriteDetectionsJson(const std::string& path, const std::vector<DamageInstance>& instances) {
-  std::ofstream f(path);
-  if (!f) throw std::runtime_error(fmt::format("{}: cannot open for writing", path));
-  f << DetectionsToJson(instances).dump(2) << "\n";
-  if (!f) throw std::runtime_error(fmt::format("{}: write failed", path));
+  WriteFileChecked(path, DetectionsToJson(instances).dump(2) + "\n");
 }
 
 }  // namespace rs
