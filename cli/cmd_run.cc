@@ -19,13 +19,7 @@ Command RunCommand() {
             auto args = std::make_shared<Args>();
             app.add_option("survey", args->survey, "survey file (survey.json)")->required();
             app.add_option("--output", args->output, "output folder (overrides the survey file's \"output\")")
-                ->check(CLI::Validator(
-                    [](std::string& dir) {
-                      // The survey file's "output" rule (schema: minLength 1); "" would silently mean "not given".
-                      return dir.empty() ? std::string("--output must name a folder (an empty path is not one)")
-                                         : std::string();
-                    },
-                    "DIR"));
+                ->check(NonEmptyFolderName());
             app.add_option("--rerun-from", args->rerun_from,
                            "recompute this stage and everything after it even if cached");
             app.add_option("--only", args->only, "run only this stage (its inputs must be cached)");
@@ -36,10 +30,11 @@ Command RunCommand() {
             auto flags = std::make_shared<OptionFlags>();
             flags->AddStages(app, registry);
             return [args, flags, &registry] {
-              SurveyFile survey = LoadSurveyForCommand(args->survey, registry);
-              if (!args->output.empty()) survey.output_dir = std::filesystem::absolute(args->output);
+              const SurveyFile survey = LoadSurveyForCommand(args->survey, registry, args->output);
               RunRequest req;
               req.cli_overrides = flags->Overrides();
+              // What `validate` would reject fails here, before anything is computed or written.
+              if (!CheckBeforeRun(registry, survey, req.cli_overrides)) return static_cast<int>(kExitBadInput);
               if (!args->rerun_from.empty()) req.rerun_from = args->rerun_from;
               if (!args->only.empty()) req.only = args->only;
               req.frames = FrameSelection::Parse(args->frames);

@@ -129,6 +129,11 @@ class StageContext {
   std::mutex mutex_;
 };
 
+/// How far a validation pass goes. `run` checks everything it would fail on up front
+/// (kUpFront: files, formats, the flight log against the frames); `validate` also decodes
+/// every image (kFull), which a run does frame by frame, skipping the bad ones.
+enum class ValidationDepth { kUpFront, kFull };
+
 /// Type-erased stage, as the job graph sees it.
 class Stage {
  public:
@@ -138,14 +143,16 @@ class Stage {
   /// Parses merged options into the typed struct and runs its Check().
   /// Throws OptionError stating the rule broken.
   virtual void CheckOptions(const nlohmann::json& merged) const = 0;
-  /// Checks this stage's inputs up front (for `roadsurvey validate`), listing every problem.
-  virtual void Validate(const SurveyFile& survey, const nlohmann::json& merged, ProblemList& problems) const {}
+  /// Checks this stage's inputs up front (`roadsurvey validate`, and `run` before computing),
+  /// listing every problem once.
+  virtual void Validate(const SurveyFile& survey, const nlohmann::json& merged, ValidationDepth depth,
+                        ProblemList& problems) const {}
   virtual void Run(StageContext& ctx, const nlohmann::json& merged) const = 0;
 };
 
 /// Base for concrete stages: Derived provides `static StageInfo Info()` and
 /// `void Run(StageContext&, const Options&) const`, and may provide
-/// `void Validate(const SurveyFile&, const Options&, ProblemList&) const`.
+/// `void ValidateInputs(const SurveyFile&, const Options&, ValidationDepth, ProblemList&) const`.
 /// Options provides `static const OptionTable<Options>& Table()` and `void Check() const`.
 template <class Derived, class Options>
 class TypedStage : public Stage {
@@ -156,14 +163,15 @@ class TypedStage : public Stage {
   }
   const OptionTableBase& options() const override { return Options::Table(); }
   void CheckOptions(const nlohmann::json& merged) const override { Options::Table().FromJson(merged).Check(); }
-  void Validate(const SurveyFile& survey, const nlohmann::json& merged, ProblemList& problems) const override {
-    static_cast<const Derived*>(this)->ValidateInputs(survey, Options::Table().FromJson(merged), problems);
+  void Validate(const SurveyFile& survey, const nlohmann::json& merged, ValidationDepth depth,
+                ProblemList& problems) const override {
+    static_cast<const Derived*>(this)->ValidateInputs(survey, Options::Table().FromJson(merged), depth, problems);
   }
   void Run(StageContext& ctx, const nlohmann::json& merged) const override {
     static_cast<const Derived*>(this)->Run(ctx, Options::Table().FromJson(merged));
   }
   /// Default: nothing to check before running.
-  void ValidateInputs(const SurveyFile&, const Options&, ProblemList&) const {}
+  void ValidateInputs(const SurveyFile&, const Options&, ValidationDepth, ProblemList&) const {}
 };
 
 /// The stages a program knows, in registration order. No global state: the

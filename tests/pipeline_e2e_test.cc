@@ -249,10 +249,10 @@ TEST_F(PipelineE2E, ExitCodes) {
   EXPECT_EQ(broken_rule.exit_code, 2);
   EXPECT_NE(broken_rule.output.find("p2"), std::string::npos) << broken_rule.output;
 
-  // The output folder is a file: a processing (environment) failure, not bad input.
+  // The output folder is a file: refused up front like `validate` refuses it (bad input).
   const fs::path file = root_ / "not_a_folder";
   std::ofstream(file) << "x";
-  EXPECT_EQ(Run(file).exit_code, 1);
+  EXPECT_EQ(Run(file).exit_code, 2);
 }
 
 TEST_F(PipelineE2E, SchemaErrorsNameTheKey) {

@@ -551,13 +551,18 @@ void AddSamples(std::vector<Row>& rows, const std::vector<int64_t>& t_ns, Flight
     Row& r = rows[i];
     if (r.has_pos) {
       r.fix.t_ns = t_ns[i];
+      r.fix.source_pos = r.line;
       track->fixes.push_back(r.fix);
     }
-    if (r.has_att) track->attitude.push_back(flightlog::AttitudeFromEulerDeg(t_ns[i], r.roll, r.pitch, r.yaw));
+    if (r.has_att) {
+      track->attitude.push_back(flightlog::AttitudeFromEulerDeg(t_ns[i], r.roll, r.pitch, r.yaw));
+      track->attitude.back().source_pos = r.line;
+    }
     if (r.photo && !prev_photo) {
       CameraEvent e;
       e.t_ns = t_ns[i];
       e.sequence = photo_seq++;
+      e.source_pos = r.line;
       if (r.has_pos)
         e.lat_deg = r.fix.lat_deg, e.lon_deg = r.fix.lon_deg, e.alt_m = r.fix.alt_m, e.alt_ref = r.fix.alt_ref;
       track->camera_events.push_back(e);

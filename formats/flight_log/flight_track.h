@@ -31,6 +31,8 @@ struct GnssFix {
   double h_acc_m = kNaN;  ///< horizontal accuracy (1 sigma) where the log gives it
   double v_acc_m = kNaN;  ///< vertical accuracy (1 sigma) where the log gives it
   double ground_speed_m_s = kNaN;
+  int64_t source_pos =
+      -1;  ///< where the record is in the log: 1-based line (text logs), byte offset (binary); -1 unknown
 };
 
 /// Vehicle attitude: rotation from the body frame (FRD) to the local NED frame,
@@ -38,6 +40,8 @@ struct GnssFix {
 struct AttitudeSample {
   int64_t t_ns = 0;
   double qw = 1, qx = 0, qy = 0, qz = 0;
+  int64_t source_pos =
+      -1;  ///< where the record is in the log: 1-based line (text logs), byte offset (binary); -1 unknown
 };
 
 /// A camera trigger/capture event logged by the autopilot.
@@ -46,6 +50,8 @@ struct CameraEvent {
   int64_t sequence = -1;  ///< image/trigger sequence number, -1 unknown
   double lat_deg = kNaN, lon_deg = kNaN, alt_m = kNaN;
   AltitudeReference alt_ref = AltitudeReference::kUnknown;
+  int64_t source_pos =
+      -1;  ///< where the record is in the log: 1-based line (text logs), byte offset (binary); -1 unknown
 };
 
 /// A whole flight log, normalized. Vectors are sorted by t_ns.

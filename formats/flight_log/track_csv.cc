@@ -273,6 +273,7 @@ FlightTrack ReadTrackCsv(std::istream& in, const std::string& path) {
       f.h_acc_m = row.OptDouble(kHAcc, 0, 1e7);
       f.v_acc_m = row.OptDouble(kVAcc, 0, 1e7);
       f.ground_speed_m_s = row.OptDouble(kGroundSpeed, 0, 1e4);
+      f.source_pos = line_no;
       track.fixes.push_back(f);
     } else if (type == "attitude") {
       for (Col c : {kLat, kLon, kAlt, kAltRef, kFixType, kSatellites, kHAcc, kVAcc, kSequence, kGroundSpeed})
@@ -289,6 +290,7 @@ FlightTrack ReadTrackCsv(std::istream& in, const std::string& path) {
       if (std::abs(norm - 1) > 1e-12) {  // written with few digits: restore a unit quaternion
         s.qw /= norm, s.qx /= norm, s.qy /= norm, s.qz /= norm;
       }
+      s.source_pos = line_no;
       track.attitude.push_back(s);
     } else if (type == "camera") {
       for (Col c : {kFixType, kSatellites, kHAcc, kVAcc, kQw, kQx, kQy, kQz, kGroundSpeed})
@@ -302,6 +304,7 @@ FlightTrack ReadTrackCsv(std::istream& in, const std::string& path) {
       e.lon_deg = row.OptDouble(kLon, -180, 180);
       e.alt_m = row.OptDouble(kAlt, -1e5, 1e6);
       e.alt_ref = row.AltRef(row.Has(kAlt));
+      e.source_pos = line_no;
       track.camera_events.push_back(e);
     } else {
       row.Fail(kType, "'" + std::string(type) + "' is not one of gnss, attitude, camera");

@@ -6,8 +6,10 @@
 namespace rs::flightlog {
 
 /// Stable-sorts fixes, attitude and camera events by t_ns. When any vector
-/// was out of order, adds a note saying how many records were (so a log with
-/// a clock jump is visible, not silently reordered).
+/// was out of order, adds a note saying how many records were and where the
+/// first of each kind is (file:line, or file @ byte N for binary logs, from the
+/// records' source_pos), so a log with a clock jump is visible, not silently
+/// reordered. track->source_path and format must be set.
 void SortTrackByTime(FlightTrack* track);
 
 }  // namespace rs::flightlog

@@ -435,6 +435,10 @@ int ValidateStereoFolder(const fs::path& folder, const std::string& layout, Prob
       return StereoSource(StereoLayout::kPlain, folder, {}, std::nullopt, false, {});
     }
   }();
+  return ValidateStereoImages(s, problems);
+}
+
+int ValidateStereoImages(const StereoSource& s, ProblemList* problems) {
   const auto& calib = s.calibration();
   int good = 0;
   for (const StereoFrame& f : s.frames()) {

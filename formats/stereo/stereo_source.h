@@ -80,4 +80,9 @@ StereoSource OpenStereoSource(const std::filesystem::path& folder, const std::st
 /// calibration's. Returns the number of frames that passed every check.
 int ValidateStereoFolder(const std::filesystem::path& folder, const std::string& layout, ProblemList* problems);
 
+/// The image half of ValidateStereoFolder for a source already opened (with `problems`, so its
+/// listing problems are recorded once): every image decodable, sizes equal and equal to the
+/// calibration's. Returns the number of frames that passed.
+int ValidateStereoImages(const StereoSource& source, ProblemList* problems);
+
 }  // namespace rs

@@ -16,6 +16,7 @@
 #include "formats/stereo/image_io.h"
 #include "formats/stereo/rectifier.h"
 #include "formats/stereo/stereo_source.h"
+#include "stages/ingest/flight_log_check.h"
 #include "stages/ingest/time_alignment.h"
 #include "survey/atomic_file.h"
 
@@ -66,35 +67,27 @@ std::vector<FrameRecord> UsableFrames(const StageContext& ctx, const std::vector
   return good;
 }
 
-// The camera-log clock offset, ns: the configured one, or the estimate from the log's camera
-// trigger events where it is confident. `offset_report_out` receives both (ingest.json).
-int64_t ClockOffset(StageContext& ctx, const IngestOptions& o, const nlohmann::json& log_spec,
-                    const std::vector<FrameRecord>& good, const FlightTrack& track, nlohmann::json* offset_report_out) {
-  int64_t offset_ns = Seconds(log_spec.value("clock_offset_s", 0.0));
-  nlohmann::json& offset_report = *offset_report_out;
-  offset_report = {{"configured_s", offset_ns * 1e-9}, {"used_s", offset_ns * 1e-9}, {"method", "configured"}};
-  if (o.estimate_clock_offset) {
-    std::vector<int64_t> times;
-    for (const auto& f : good) times.push_back(f.t_ns);
-    if (const auto est = EstimateClockOffsetFromEvents(times, track.camera_events, offset_ns)) {
-      offset_report["estimate"] = {{"offset_s", est->offset_ns * 1e-9},   {"spread_s", est->spread_ns * 1e-9},
-                                   {"matched_pairs", est->matched_pairs}, {"index_shift", est->index_shift},
-                                   {"confident", est->confident},         {"method", est->method}};
-      if (est->confident) {
-        offset_ns = est->offset_ns;
-        offset_report["used_s"] = offset_ns * 1e-9;
-        offset_report["method"] = est->method;
-      } else {
-        ctx.Warn(
-            fmt::format("clock offset estimate {:.3f} s is not confident (spread {:.3f} s): using the "
-                        "configured {:.3f} s",
-                        est->offset_ns * 1e-9, est->spread_ns * 1e-9, offset_ns * 1e-9));
-      }
-    } else {
-      offset_report["estimate"] = "not possible: the log has too few camera events";
-    }
-  }
-  return offset_ns;
+// The frames as a run lists them; `run`'s up-front check lists them the same way, so whatever
+// this tolerates (or rejects) the check does too.
+StereoSource ListFrames(const SurveyFile& survey) {
+  return OpenStereoSource(*survey.InputPath("frames"), survey.inputs["frames"].value("layout", std::string("auto")));
+}
+
+// Frame times (camera clock) of every listed frame: the flight-log checks see the same frames in
+// `validate` and `run`, whichever images later turn out unreadable.
+std::vector<int64_t> CameraTimes(const StereoSource& source) {
+  std::vector<int64_t> times;
+  for (const auto& f : source.frames()) times.push_back(f.t_ns);
+  return times;
+}
+
+// Whether a problem already listed sits in `file` (a file the layout read is not reported twice).
+bool HasErrorIn(const ProblemList& problems, const fs::path& file) {
+  std::error_code ec;
+  const fs::path target = fs::weakly_canonical(file, ec);
+  for (const auto& p : problems.items())
+    if (p.severity == InputProblem::Severity::kError && fs::weakly_canonical(p.where.path, ec) == target) return true;
+  return false;
 }
 
 }  // namespace
@@ -144,8 +137,7 @@ void IngestStage::Run(StageContext& ctx, const IngestOptions& o) const {
   const SurveyFile& survey = ctx.survey();
   const auto t0 = std::chrono::steady_clock::now();
   const fs::path frames_path = *survey.InputPath("frames");
-  const StereoSource source =
-      OpenStereoSource(frames_path, survey.inputs["frames"].value("layout", std::string("auto")));
+  const StereoSource source = ListFrames(survey);
   for (const auto& w : source.warnings().items()) ctx.Warn(w.ToString());
   if (source.timestamps_synthesized()) ctx.Warn("frame times synthesized from the nominal frame rate");
 
@@ -210,18 +202,19 @@ void IngestStage::Run(StageContext& ctx, const IngestOptions& o) const {
     const auto& log_spec = survey.inputs["flight_log"];
     const FlightTrack track = ReadFlightLog(*log_path, log_spec.value("format", std::string("auto")));
     WriteStreamChecked(ctx.out_dir() / "track.csv", [&](std::ostream& out) { WriteTrackCsv(out, track); });
-    for (const auto& n : track.notes) ctx.Warn("flight log: " + n);
-    if (track.fixes.empty()) throw InputError(InputLocation::File(log_path->string()), "flight log has no GNSS fix");
-
+    // The checks `validate` makes, on the same frames: a log it rejects fails here the same way.
+    ProblemList log_problems;
+    const auto alignment = CheckFlightLog(track, *log_path, log_spec, CameraTimes(source), o, log_problems);
+    for (const auto& p : log_problems.items()) {
+      if (p.severity == InputProblem::Severity::kError) throw InputError(p.where, p.message);
+      ctx.Warn("flight log: " + p.message);
+    }
     const TrackFindings findings = CheckTrack(track, Seconds(o.max_log_gap_s), o.max_speed_m_s);
-    for (const auto& m : findings.messages) ctx.Warn("flight log: " + m);
-
-    nlohmann::json offset_report;
-    const int64_t offset_ns = ClockOffset(ctx, o, log_spec, good, track, &offset_report);
+    const int64_t offset_ns = alignment->offset_ns;
+    const nlohmann::json& offset_report = alignment->report;
     priors = InterpolatePriors(good, track, offset_ns, Seconds(o.max_log_gap_s));
     std::map<std::string, int> by_status;
     for (const auto& p : priors) ++by_status[ToString(p.status)];
-    const double in_span = good.empty() ? 0.0 : double(by_status["ok"] + by_status["in-gap"]) / good.size();
     if (by_status["outside-span"] > 0)
       ctx.Warn(fmt::format("{} frame(s) lie outside the flight log's time span: no prior, not extrapolated",
                            by_status["outside-span"]));
@@ -241,12 +234,6 @@ void IngestStage::Run(StageContext& ctx, const IngestOptions& o) const {
                             {"priors", by_status}};
     ctx.Count("frames_with_prior", by_status["ok"]);
     ctx.Time("flight_log", std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count());
-    if (in_span < o.min_in_span_fraction)
-      throw InputError(
-          InputLocation::File(log_path->string()),
-          fmt::format("only {:.0f}% of frames fall inside the log's time span (ingest.min_in_span_fraction "
-                      "= {}): wrong log, or a clock offset is missing (inputs.flight_log.clock_offset_s)",
-                      100 * in_span, o.min_in_span_fraction));
   } else {
     for (const auto& f : good) priors.push_back({f.id, f.t_ns, f.t_ns});
     report["flight_log"] = nullptr;
@@ -256,41 +243,35 @@ void IngestStage::Run(StageContext& ctx, const IngestOptions& o) const {
   WriteJsonAtomic(ctx.out_dir() / "ingest.json", report);
 }
 
-void IngestStage::ValidateInputs(const SurveyFile& survey, const IngestOptions& o, ProblemList& problems) const {
+void IngestStage::ValidateInputs(const SurveyFile& survey, const IngestOptions& o, ValidationDepth depth,
+                                 ProblemList& problems) const {
   const fs::path frames_path = *survey.InputPath("frames");
   const std::string layout = survey.inputs["frames"].value("layout", std::string("auto"));
   std::optional<StereoSource> source;
   try {
-    source = OpenStereoSource(frames_path, layout, &problems);
+    // validate lists every listing problem; run's check stops where the run's own listing would.
+    source = depth == ValidationDepth::kFull ? OpenStereoSource(frames_path, layout, &problems) : ListFrames(survey);
   } catch (const InputError& e) {
     problems.Add(e);
   }
   if (source) {
-    try {
-      const StereoCalibration calib = LoadCalibration(survey, *source);
-      CheckStereoCalibration(calib, calib.source_path);
-    } catch (const InputError& e) {
-      problems.Add(e);
+    const auto named = survey.InputPath("calibration");
+    // The layout's own calibration file was read while listing; its problems are listed already.
+    if (!named || !HasErrorIn(problems, *named)) {
+      try {
+        const StereoCalibration calib = LoadCalibration(survey, *source);
+        CheckStereoCalibration(calib, calib.source_path);
+      } catch (const InputError& e) {
+        problems.Add(e);
+      }
     }
-    if (o.check_images) ValidateStereoFolder(frames_path, layout, &problems);
+    if (o.check_images && depth == ValidationDepth::kFull) ValidateStereoImages(*source, &problems);
   }
   if (const auto log_path = survey.InputPath("flight_log")) {
     try {
-      const FlightTrack track =
-          ReadFlightLog(*log_path, survey.inputs["flight_log"].value("format", std::string("auto")));
-      if (track.fixes.empty()) problems.Error(InputLocation::File(log_path->string()), "no GNSS fix in the log");
-      const TrackFindings findings = CheckTrack(track, Seconds(o.max_log_gap_s), o.max_speed_m_s);
-      for (const auto& m : findings.messages) problems.Warning(InputLocation::File(log_path->string()), m);
-      if (source && !track.fixes.empty() && !source->frames().empty()) {
-        const int64_t offset = Seconds(survey.inputs["flight_log"].value("clock_offset_s", 0.0));
-        const int64_t first = source->frames().front().t_ns - offset, last = source->frames().back().t_ns - offset;
-        if (last < track.fixes.front().t_ns || first > track.fixes.back().t_ns)
-          problems.Error(
-              InputLocation::File(log_path->string()),
-              fmt::format("the frames' time range does not overlap the log's ({} frames from t = {} ns; "
-                          "log from {} to {} ns): wrong log or missing clock offset",
-                          source->frames().size(), first, track.fixes.front().t_ns, track.fixes.back().t_ns));
-      }
+      const auto& log_spec = survey.inputs["flight_log"];
+      const FlightTrack track = ReadFlightLog(*log_path, log_spec.value("format", std::string("auto")));
+      CheckFlightLog(track, *log_path, log_spec, source ? CameraTimes(*source) : std::vector<int64_t>{}, o, problems);
     } catch (const InputError& e) {
       problems.Add(e);
     }

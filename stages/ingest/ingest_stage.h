@@ -24,7 +24,8 @@ class IngestStage : public TypedStage<IngestStage, IngestOptions> {
  public:
   static StageInfo Info();
   void Run(StageContext& ctx, const IngestOptions& options) const;
-  void ValidateInputs(const SurveyFile& survey, const IngestOptions& options, ProblemList& problems) const;
+  void ValidateInputs(const SurveyFile& survey, const IngestOptions& options, ValidationDepth depth,
+                      ProblemList& problems) const;
 };
 
 }  // namespace rs

@@ -1,4 +1,5 @@
 #include "formats/flight_log/dataflash/dataflash_track.h"
+#include "formats/flight_log/track_sort.h"
 
 #include <algorithm>
 #include <cmath>
@@ -220,6 +221,7 @@ void AddFixes(const dataflash::DataflashFile& log, const std::optional<dataflash
       }
       if (sats) f.satellites = static_cast<int>(gps->Int(r, *sats));
       if (spd) f.ground_speed_m_s = gps->Value(r, *spd);
+      f.source_pos = gps->offsets[r];
       track->fixes.push_back(f);
     }
     if (dropped > 0) track->notes.push_back(fmt::format("dropped {} of {} GPS records without a fix", dropped, total));
@@ -247,6 +249,7 @@ void AddAttitude(const dataflash::DataflashFile& log, const std::optional<datafl
       continue;
     }
     track->attitude.push_back(FromEulerDeg(*t, att->Value(r, *roll), att->Value(r, *pitch), att->Value(r, *yaw)));
+    track->attitude.back().source_pos = att->offsets[r];
   }
   if (dropped > 0)
     track->notes.push_back(fmt::format("dropped {} {} records with an invalid time", dropped, att->name));
@@ -293,6 +296,7 @@ void AddCameraEvents(const dataflash::DataflashFile& log, const std::optional<da
       e.alt_m = cam->Value(r, *alt);
       e.alt_ref = ref;
     }
+    e.source_pos = cam->offsets[r];
     track->camera_events.push_back(e);
   }
   track->notes.push_back(fmt::format("camera events from {}", cam->name));
@@ -336,11 +340,7 @@ FlightTrack DataflashToFlightTrack(const dataflash::DataflashFile& log, const st
   AddAttitude(log, clock, &track);
   AddCameraEvents(log, clock, &track);
 
-  auto by_t = [](const auto& a, const auto& b) { return a.t_ns < b.t_ns; };
-  std::stable_sort(track.fixes.begin(), track.fixes.end(), by_t);
-  std::stable_sort(track.attitude.begin(), track.attitude.end(), by_t);
-  std::stable_sort(track.camera_events.begin(), track.camera_events.end(), by_t);
-
+  flightlog::SortTrackByTime(&track);
   AddFileNotes(log, &track);
   return track;
 }

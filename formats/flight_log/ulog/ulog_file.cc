@@ -156,10 +156,16 @@ class Parser {
           continue;
         }
         const size_t need = seg_end - pos < kMsgHeaderSize ? kMsgHeaderSize : kMsgHeaderSize + U16(&d_[pos]);
-        Truncated(pos, fmt::format("truncated message: needs {} bytes, {} remain", need, seg_end - pos));
+        const std::string reason = fmt::format("truncated message: needs {} bytes, {} remain", need, seg_end - pos);
+        if (opt_.read_to_cut) {
+          f_.cut = CutShort{static_cast<int64_t>(pos), static_cast<int64_t>(d_.size()), messages_read_, reason};
+        } else {
+          Truncated(pos, reason);
+        }
         break;
       }
       pos = Message(pos);
+      ++messages_read_;
     }
     Finish();
   }
@@ -339,6 +345,10 @@ class Parser {
       for (int i = 0; i < 3; ++i) {
         const uint64_t off = U64(m.p + 16 + 8 * i);
         if (off == 0) continue;
+        if (opt_.read_to_cut && off > d_.size() && off > m.end && off > prev) {
+          ++f_.appended_offsets_past_end;  // the file was cut before its appended data
+          continue;
+        }
         if (off <= m.end || off > d_.size() || off <= prev) {
           if (!opt_.recover)
             Fail(m.pos, fmt::format("appended-data offset {} outside the file ({} bytes)", off, d_.size()));
@@ -507,6 +517,7 @@ class Parser {
   ReadOptions opt_;
   UlogFile& f_;
   bool in_definitions_ = true;
+  int64_t messages_read_ = 0;  // complete messages so far (a cut reports how many came before it)
   std::vector<Topic> work_;
   std::map<uint16_t, size_t> subs_;
   std::map<std::pair<std::string, int>, size_t> by_name_;

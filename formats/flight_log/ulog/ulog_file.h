@@ -129,6 +129,17 @@ struct ReadOptions {
   /// true: skip to the next sync marker (or a plausible message header) and
   /// record each skipped stretch in UlogFile::skips.
   bool recover = false;
+  /// true: a file that ends inside a message (the logger lost power) is read up to its last
+  /// complete message and the cut is recorded in UlogFile::cut instead of failing.
+  bool read_to_cut = false;
+};
+
+/// Where a file that ends inside a message was cut, and how much came before it.
+struct CutShort {
+  int64_t offset = 0;         ///< byte where the incomplete message starts (= bytes read)
+  int64_t file_bytes = 0;     ///< size of the file
+  int64_t messages_read = 0;  ///< complete messages before the cut (header excluded)
+  std::string reason;         ///< "truncated message: needs N bytes, M remain"
 };
 
 /// The decoded content of a ULog file.
@@ -152,6 +163,8 @@ struct UlogFile {
   std::vector<Skip> skips;                    ///< recovery mode: what was skipped and why
   std::map<char, int> unknown_message_types;  ///< unknown (future) message types skipped, by type letter
   int messages_cut_at_appended_offset = 0;    ///< messages cut where appended data starts (normal for crash dumps)
+  std::optional<CutShort> cut;                ///< read_to_cut: the file ended inside a message
+  int appended_offsets_past_end = 0;          ///< read_to_cut: appended data announced beyond the cut
 
   /// Topic by name and instance; nullptr if absent.
   const Topic* FindTopic(const std::string& name, int multi_id = 0) const;

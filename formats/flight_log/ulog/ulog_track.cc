@@ -218,6 +218,14 @@ void AddFileNotes(const ulog::UlogFile& log, FlightTrack* track) {
     track->notes.push_back(
         fmt::format("{} message(s) cut where appended data starts", log.messages_cut_at_appended_offset));
   }
+  if (log.cut) {
+    const ulog::CutShort& c = *log.cut;
+    track->notes.push_back(fmt::format(
+        "log cut short (power loss?): read {} of {} bytes, {} complete messages, logged boot time {:.3f} to {:.3f} "
+        "s; the message at byte {} is incomplete ({}){}",
+        c.offset, c.file_bytes, c.messages_read, log.start_timestamp_us * 1e-6, log.last_timestamp_us * 1e-6, c.offset,
+        c.reason, log.appended_offsets_past_end > 0 ? "; the appended data it announces was lost" : ""));
+  }
   for (const auto& [type, n] : log.unknown_message_types) {
     track->notes.push_back(fmt::format("skipped {} message(s) of unknown type '{}'", n, type));
   }

@@ -22,9 +22,14 @@ namespace rs {
 /// offset over all records carrying it), otherwise boot time with a note.
 FlightTrack UlogToFlightTrack(const ulog::UlogFile& log, const std::string& path);
 
+/// How a flight log is read: strict about corruption, but a file cut short (power loss) is read
+/// up to its last complete message, with a note saying how much was read.
+inline constexpr ulog::ReadOptions kFlightLogReadOptions{.recover = false, .read_to_cut = true};
+
 /// Reads and normalizes a ULog from a stream; `path` names it in errors.
-FlightTrack ReadUlogTrack(std::istream& in, const std::string& path, const ulog::ReadOptions& options = {});
+FlightTrack ReadUlogTrack(std::istream& in, const std::string& path,
+                          const ulog::ReadOptions& options = kFlightLogReadOptions);
 /// Reads and normalizes a ULog file.
-FlightTrack ReadUlogTrack(const std::filesystem::path& path, const ulog::ReadOptions& options = {});
+FlightTrack ReadUlogTrack(const std::filesystem::path& path, const ulog::ReadOptions& options = kFlightLogReadOptions);
 
 }  // namespace rs

@@ -3,8 +3,11 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <fstream>
+#include <iterator>
 #include <sstream>
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include "formats/flight_log/ulog/ulog_test_builder.h"
@@ -165,6 +168,51 @@ TEST(UlogTrack, SampleDoubleLatLon) {
   }
   // 2024-03-18 (the log file name's date), 14:49 UTC.
   EXPECT_NEAR(t.fixes.front().t_ns * 1e-9, 1710773350.0, 120.0);
+}
+
+// A log cut short (power loss) reads up to its last complete message, with a note saying how much
+// was read: exactly what a file ending at that message boundary holds, never an error.
+TEST(UlogTrack, CutShortSampleReadsToLastCompleteMessage) {
+  const auto p = Sample("sample_px4_events.ulg");
+  if (!std::filesystem::exists(p)) GTEST_SKIP() << "sample data absent: " << p;
+  std::ifstream in(p, std::ios::binary);
+  const std::string full(std::istreambuf_iterator<char>(in), {});
+  const auto read_track = [](const std::string& bytes) {
+    std::istringstream ss(bytes);
+    return ReadUlogTrack(ss, "cut.ulg");
+  };
+  const FlightTrack whole = read_track(full);
+  size_t previous_fixes = 0;
+  for (const double fraction : {0.1, 0.25, 0.5, 0.75, 0.9, 0.99}) {
+    const size_t len = static_cast<size_t>(fraction * full.size());
+    const std::string cut = full.substr(0, len);
+    std::istringstream ss(cut);
+    const ulog::UlogFile file = ulog::ReadUlogFile(ss, "cut.ulg", kFlightLogReadOptions);
+    ASSERT_TRUE(file.cut.has_value()) << "a cut inside a message at byte " << len;
+    EXPECT_EQ(file.cut->file_bytes, static_cast<int64_t>(len));
+    ASSERT_LT(file.cut->offset, static_cast<int64_t>(len));
+    // What was read equals a file that ends at the last complete message, read strictly.
+    std::istringstream at_boundary(full.substr(0, static_cast<size_t>(file.cut->offset)));
+    const ulog::UlogFile strict = ulog::ReadUlogFile(at_boundary, "boundary.ulg");
+    ASSERT_EQ(strict.topics.size(), file.topics.size());
+    for (size_t i = 0; i < strict.topics.size(); ++i) EXPECT_EQ(strict.topics[i].records, file.topics[i].records);
+
+    const FlightTrack t = read_track(cut);
+    const std::string expected =
+        fmt::format("read {} of {} bytes, {} complete messages", file.cut->offset, len, file.cut->messages_read);
+    bool noted = false;
+    for (const std::string& n : t.notes) noted = noted || n.find(expected) != std::string::npos;
+    EXPECT_TRUE(noted) << "no note '" << expected << "' at cut " << len;
+    // The fixes read are the whole log's first ones.
+    EXPECT_GE(t.fixes.size(), previous_fixes);
+    ASSERT_LE(t.fixes.size(), whole.fixes.size());
+    for (size_t i = 0; i < t.fixes.size(); ++i) {
+      EXPECT_EQ(t.fixes[i].lat_deg, whole.fixes[i].lat_deg) << i;
+      EXPECT_EQ(t.fixes[i].lon_deg, whole.fixes[i].lon_deg) << i;
+    }
+    previous_fixes = t.fixes.size();
+  }
+  EXPECT_GT(previous_fixes, 0u);
 }
 
 }  // namespace
