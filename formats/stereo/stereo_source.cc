@@ -438,31 +438,40 @@ int ValidateStereoFolder(const fs::path& folder, const std::string& layout, Prob
   return ValidateStereoImages(s, problems);
 }
 
-int ValidateStereoImages(const StereoSource& s, ProblemList* problems) {
+int ValidateStereoImages(const StereoSource& s, ProblemList* problems, bool bad_frames_are_skipped) {
   const auto& calib = s.calibration();
+  const auto report = [&](const InputLocation& where, const std::string& message) {
+    if (bad_frames_are_skipped)
+      problems->Warning(where, message + ": the frame will be skipped");
+    else
+      problems->Error(where, message);
+  };
   int good = 0;
   for (const StereoFrame& f : s.frames()) {
     cv::Size sl, sr;
     bool ok = true;
     for (const auto& [p, size] : {std::pair{&f.left, &sl}, std::pair{&f.right, &sr}}) {
+      if (!fs::exists(*p)) {  // the listing has reported it (an error, or a warning when it skips)
+        ok = false;
+        continue;
+      }
       try {
         *size = LoadImageRaw(*p).size();
       } catch (const InputError& e) {
-        problems->Add(e);
+        report(e.where(), e.message());
         ok = false;
       }
     }
     if (!ok) continue;
     if (sl != sr) {
-      problems->Error(f.where, "left " + std::to_string(sl.width) + "x" + std::to_string(sl.height) + " and right " +
-                                   std::to_string(sr.width) + "x" + std::to_string(sr.height) +
-                                   " images differ in size");
+      report(f.where, "left " + std::to_string(sl.width) + "x" + std::to_string(sl.height) + " and right " +
+                          std::to_string(sr.width) + "x" + std::to_string(sr.height) + " images differ in size");
       continue;
     }
     if (calib && calib->left.width > 0 && (calib->left.width != sl.width || calib->left.height != sl.height)) {
-      problems->Error(f.where, "image size " + std::to_string(sl.width) + "x" + std::to_string(sl.height) +
-                                   " differs from the calibration's " + std::to_string(calib->left.width) + "x" +
-                                   std::to_string(calib->left.height) + " (" + calib->source_path + ")");
+      report(f.where, "image size " + std::to_string(sl.width) + "x" + std::to_string(sl.height) +
+                          " differs from the calibration's " + std::to_string(calib->left.width) + "x" +
+                          std::to_string(calib->left.height) + " (" + calib->source_path + ")");
       continue;
     }
     ++good;

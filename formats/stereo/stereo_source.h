@@ -82,7 +82,9 @@ int ValidateStereoFolder(const std::filesystem::path& folder, const std::string&
 
 /// The image half of ValidateStereoFolder for a source already opened (with `problems`, so its
 /// listing problems are recorded once): every image decodable, sizes equal and equal to the
-/// calibration's. Returns the number of frames that passed.
-int ValidateStereoImages(const StereoSource& source, ProblemList* problems);
+/// calibration's. Returns the number of frames that passed. With `bad_frames_are_skipped` (what a run
+/// does with such a frame) each bad frame is a warning saying so, not an error; a missing file is not
+/// reported again (listing the source already warned about it).
+int ValidateStereoImages(const StereoSource& source, ProblemList* problems, bool bad_frames_are_skipped = false);
 
 }  // namespace rs

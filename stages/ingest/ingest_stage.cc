@@ -265,7 +265,7 @@ void IngestStage::ValidateInputs(const SurveyFile& survey, const IngestOptions& 
         problems.Add(e);
       }
     }
-    if (o.check_images && depth == ValidationDepth::kFull) ValidateStereoImages(*source, &problems);
+    if (o.check_images && depth == ValidationDepth::kFull) ValidateStereoImages(*source, &problems, o.skip_bad_frames);
   }
   if (const auto log_path = survey.InputPath("flight_log")) {
     try {
