@@ -12,6 +12,7 @@
 #include "stages/slam/disparity_calibration.h"
 #include "stages/slam/global_refinement.h"
 #include "stages/slam/loop_closing.h"
+#include "stages/slam/slam_regime.h"
 #include "stages/slam/stereo_slam_internal.h"
 
 namespace rs {
@@ -27,10 +28,10 @@ const char* ToString(FrameStatus status) {
 
 std::string SlamStatistics::BriefReport() const {
   return fmt::format(
-      "{} frames ({} tracked, {} relocalised, {} prior-only of which {} GNSS-positioned), {} keyframes, "
+      "regime {}, {} frames ({} tracked, {} relocalised, {} prior-only of which {} GNSS-positioned), {} keyframes, "
       "{} points, {} segments, {} loops closed ({} rejected of {} candidates)",
-      frames, tracked, relocalised, prior_only, gnss_positioned, keyframes, map_points, segments, loops_closed,
-      loops_rejected, loop_candidates);
+      ToString(regime), frames, tracked, relocalised, prior_only, gnss_positioned, keyframes, map_points, segments,
+      loops_closed, loops_rejected, loop_candidates);
 }
 
 using stereo_slam_internal::Clock;
@@ -51,6 +52,20 @@ void StereoSlam::Impl::EstimateDisparityOffsetOfMap() {
   stats.disparity_offset_samples = e.samples;
 }
 
+// The regime (slam_regime.h) from the first frame's features, once; the options follow it. True when
+// the front end's options changed (the frame's features should be extracted again).
+bool StereoSlam::Impl::ChooseRegimeFrom(const StereoFeatures& first) {
+  if (regime_chosen) return false;
+  regime_chosen = true;
+  const RegimeChoice c = ChooseRegime(opt, first);
+  stats.regime = c.regime;
+  stats.regime_reason = c.reason;
+  const SlamOptions chosen = OptionsForRegime(opt, c.regime);
+  const bool front_end_changed = chosen.features != opt.features;
+  opt = chosen;
+  return front_end_changed;
+}
+
 FrameResult StereoSlam::Impl::Track(int64_t t_ns, const cv::Mat& left, const cv::Mat& right,
                                     const std::optional<PosePrior>& prior) {
   if (finished) throw std::invalid_argument("StereoSlam::Track called after Finish");
@@ -61,6 +76,7 @@ FrameResult StereoSlam::Impl::Track(int64_t t_ns, const cv::Mat& left, const cv:
                     cam.height, left.cols, left.rows, right.cols, right.rows));
   const auto t0 = Clock::now();
   StereoFeatures f = ExtractStereoFeatures(left, right, cam, opt, pyr);
+  if (records.empty() && ChooseRegimeFrom(f)) f = ExtractStereoFeatures(left, right, cam, opt, pyr);
   stats.track_s += Seconds(t0);
   return Track(t_ns, std::move(f), prior);
 }
@@ -71,6 +87,7 @@ FrameResult StereoSlam::Impl::Track(int64_t t_ns, StereoFeatures features, const
     throw std::invalid_argument(
         fmt::format("StereoSlam::Track: time {} ns does not follow {} ns", t_ns, records.back().t_ns));
   const auto t0 = Clock::now();
+  if (records.empty()) ChooseRegimeFrom(features);
   TrackFrame cur;
   cur.index = static_cast<int>(records.size());
   cur.t_ns = t_ns;

@@ -78,6 +78,7 @@ struct StereoSlam::Impl {
   std::vector<int> point_mark;                     // last frame index a point was put in the local map
   std::vector<std::pair<int, int>> recent_points;  // (point, keyframe that created it)
   SlamStatistics stats;
+  bool regime_chosen = false;  // the first frame has set the regime (ChooseRegimeFrom)
   bool finished = false;
 
   // Tracking (stereo_slam_tracking.cc).
@@ -113,6 +114,7 @@ struct StereoSlam::Impl {
   void ApplyDisparitySelfCalibration();
 
   // Orchestration and Finish (stereo_slam.cc).
+  bool ChooseRegimeFrom(const StereoFeatures& first);
   void EstimateDisparityOffsetOfMap();
   FrameResult Track(int64_t t_ns, const cv::Mat& left, const cv::Mat& right, const std::optional<PosePrior>& prior);
   FrameResult Track(int64_t t_ns, StereoFeatures features, const std::optional<PosePrior>& prior);
