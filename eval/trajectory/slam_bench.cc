@@ -147,6 +147,10 @@ int main(int argc, char** argv) {
         const rs::SlamRunReport r = rs::RunSimulated(sim_dir, opt, priors);
         std::cout << r.Summary("simulated " + sim_preset + (priors ? " (priors 1 m)" : " (no priors)")) << "\n"
                   << SelfCalibration(r) << "\n";
+        for (const auto& f : r.frames)
+          if (f.status != rs::FrameStatus::kTracked)
+            std::cout << "  frame " << f.index << " " << rs::ToString(f.status) << ": " << f.features << " features, "
+                      << f.stereo_features << " stereo, " << f.inliers << " inliers\n";
         if (std::getenv("SLAM_BENCH_VERBOSE"))
           for (size_t i = 0; i < r.rot_rel_first_err.size(); ++i)
             std::cout << fmt::format(

@@ -1,6 +1,7 @@
 #include "stages/slam/slam_regime.h"
 
 #include <algorithm>
+#include <cmath>
 #include <vector>
 
 #include <fmt/format.h>
@@ -14,9 +15,17 @@ double Percentile(std::vector<float> v, double q) {
   return v[k];
 }
 
+std::string DepthText(const RegimeChoice& c) {
+  if (c.stereo_points < kRegimeMinStereoPoints)
+    return fmt::format("first frame has {} stereo points (< {})", c.stereo_points, kRegimeMinStereoPoints);
+  return fmt::format("first frame's stereo depths span {:.1f}-{:.1f} m (x{:.2f} {} x{:.1f})", c.depth_p10_m,
+                     c.depth_p90_m, c.depth_spread, c.depth_spread >= kForwardDepthSpread ? ">=" : "<",
+                     kForwardDepthSpread);
+}
+
 }  // namespace
 
-RegimeChoice ChooseRegime(const SlamOptions& options, const StereoFeatures& first_frame) {
+RegimeChoice ChooseRegimeFromDepths(const SlamOptions& options, const StereoFeatures& first_frame) {
   RegimeChoice c;
   std::vector<float> depth;
   for (float d : first_frame.depth_m)
@@ -24,26 +33,43 @@ RegimeChoice ChooseRegime(const SlamOptions& options, const StereoFeatures& firs
   c.stereo_points = static_cast<int>(depth.size());
   if (c.stereo_points >= kRegimeMinStereoPoints) {
     c.depth_p10_m = Percentile(depth, 0.1);
+    c.depth_p50_m = Percentile(depth, 0.5);
     c.depth_p90_m = Percentile(depth, 0.9);
     c.depth_spread = c.depth_p90_m / c.depth_p10_m;
   }
-  const std::string depths = c.stereo_points >= kRegimeMinStereoPoints
-                                 ? fmt::format("first frame's stereo depths span {:.1f}-{:.1f} m (x{:.2f})",
-                                               c.depth_p10_m, c.depth_p90_m, c.depth_spread)
-                                 : fmt::format("first frame has {} stereo points (< {}): too few to judge",
-                                               c.stereo_points, kRegimeMinStereoPoints);
   if (options.regime != SlamRegime::kAuto) {
     c.regime = options.regime;
-    c.reason = fmt::format("{}: set by the options; {}", ToString(c.regime), depths);
+    c.decided = true;
+    c.reason = fmt::format("{}: set by the options; {}", ToString(c.regime), DepthText(c));
     return c;
   }
   c.automatic = true;
-  c.regime = c.depth_spread >= kForwardDepthSpread ? SlamRegime::kForward : SlamRegime::kNadir;
-  c.reason = c.stereo_points < kRegimeMinStereoPoints
-                 ? fmt::format("{}: {}", ToString(c.regime), depths)
-                 : fmt::format("{}: {} {} x{:.0f}", ToString(c.regime), depths,
-                               c.regime == SlamRegime::kForward ? ">=" : "<", kForwardDepthSpread);
+  c.decided = c.depth_spread >= kForwardDepthSpread;
+  c.regime = c.decided ? SlamRegime::kForward : SlamRegime::kNadir;
+  c.reason = fmt::format("{}: {}", ToString(c.regime), DepthText(c));
   return c;
+}
+
+bool DecideRegimeFromMotion(RegimeChoice* c, const Eigen::Vector3d& t, int frame_index) {
+  if (c->decided) return true;
+  const double moved = t.norm();
+  const bool enough = c->depth_p50_m > 0 && moved >= kRegimeMinMotionShareOfDepth * c->depth_p50_m;
+  if (!enough && frame_index < kRegimeLastFrame) return false;
+  c->decided = true;
+  if (!enough) {
+    c->regime = SlamRegime::kNadir;
+    c->reason = fmt::format("nadir: {}; camera moved {:.3f} m by frame {} (< {:.0f} % of the median depth)",
+                            DepthText(*c), moved, frame_index, 100 * kRegimeMinMotionShareOfDepth);
+    return true;
+  }
+  c->forward_share = std::abs(t.z()) / moved;
+  c->regime = c->forward_share >= kForwardMotionShare ? SlamRegime::kForward : SlamRegime::kNadir;
+  c->reason = fmt::format(
+      "{}: {}; camera moves along its optical axis by |t_z|/|t| = {:.2f} ({} {:.1f}) over "
+      "{:.2f} m to frame {}",
+      ToString(c->regime), DepthText(*c), c->forward_share, c->regime == SlamRegime::kForward ? ">=" : "<",
+      kForwardMotionShare, moved, frame_index);
+  return true;
 }
 
 SlamOptions OptionsForRegime(const SlamOptions& options, SlamRegime regime) {

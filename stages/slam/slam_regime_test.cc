@@ -1,5 +1,7 @@
 #include "stages/slam/slam_regime.h"
 
+#include <cmath>
+
 #include <gtest/gtest.h>
 
 namespace rs {
@@ -24,10 +26,12 @@ std::vector<float> Spread(float near, float far, int n) {
   return d;
 }
 
-TEST(SlamRegime, FlatGroundFromAboveIsNadir) {
-  const RegimeChoice c = ChooseRegime(SlamOptions(), WithDepths(Spread(5.5f, 6.5f, 200)));
-  EXPECT_EQ(c.regime, SlamRegime::kNadir);
+TEST(SlamRegime, FlatGroundWaitsForMotion) {
+  const RegimeChoice c = ChooseRegimeFromDepths(SlamOptions(), WithDepths(Spread(5.5f, 6.5f, 200)));
+  EXPECT_EQ(c.regime, SlamRegime::kNadir);  // the options as given until decided
+  EXPECT_FALSE(c.decided);
   EXPECT_TRUE(c.automatic);
+  EXPECT_NEAR(c.depth_p50_m, 6.0, 0.01);
   EXPECT_EQ(c.stereo_points, 200);
   // Percentiles of an even spread: 5.5 + 0.1 / 0.9 of the range, to one sample step.
   EXPECT_NEAR(c.depth_p10_m, 5.6, 0.01);
@@ -37,25 +41,52 @@ TEST(SlamRegime, FlatGroundFromAboveIsNadir) {
 }
 
 TEST(SlamRegime, RoadToHorizonIsForward) {
-  const RegimeChoice c = ChooseRegime(SlamOptions(), WithDepths(Spread(3.f, 63.f, 301)));
+  const RegimeChoice c = ChooseRegimeFromDepths(SlamOptions(), WithDepths(Spread(3.f, 63.f, 301)));
   EXPECT_EQ(c.regime, SlamRegime::kForward);
+  EXPECT_TRUE(c.decided);
   EXPECT_NEAR(c.depth_p10_m, 9.0, 0.01);
   EXPECT_NEAR(c.depth_p90_m, 57.0, 0.01);
   EXPECT_NE(c.reason.find("forward"), std::string::npos) << c.reason;
 }
 
-TEST(SlamRegime, TooFewStereoPointsKeepTheOptionsAsGiven) {
-  const RegimeChoice c = ChooseRegime(SlamOptions(), WithDepths(Spread(3.f, 63.f, kRegimeMinStereoPoints - 1)));
-  EXPECT_EQ(c.regime, SlamRegime::kNadir);
+TEST(SlamRegime, TooFewStereoPointsAreNotJudged) {
+  RegimeChoice c = ChooseRegimeFromDepths(SlamOptions(), WithDepths(Spread(3.f, 63.f, kRegimeMinStereoPoints - 1)));
+  EXPECT_FALSE(c.decided);
   EXPECT_EQ(c.depth_spread, 0);
-  EXPECT_NE(c.reason.find("too few"), std::string::npos) << c.reason;
+  EXPECT_NE(c.reason.find("stereo points"), std::string::npos) << c.reason;
+  // Without a median depth the motion cannot be judged either: the options as given at the last frame.
+  EXPECT_FALSE(DecideRegimeFromMotion(&c, {0, 0, 5}, 1));
+  EXPECT_TRUE(DecideRegimeFromMotion(&c, {0, 0, 5}, kRegimeLastFrame));
+  EXPECT_EQ(c.regime, SlamRegime::kNadir);
+}
+
+// A shallow view (the simulated car sees the road 2.7-4.6 m away): forward when the camera moves along
+// its optical axis, nadir when it moves across it; the motion is judged once it reaches 5 % of the
+// median depth (6 m: 0.3 m).
+TEST(SlamRegime, MotionDecidesAShallowView) {
+  const RegimeChoice shallow = ChooseRegimeFromDepths(SlamOptions(), WithDepths(Spread(5.5f, 6.5f, 200)));
+  RegimeChoice along = shallow;
+  EXPECT_FALSE(DecideRegimeFromMotion(&along, {0.01, 0.05, 0.25}, 1));  // 0.255 m: not yet
+  EXPECT_TRUE(DecideRegimeFromMotion(&along, {0.02, 0.15, 0.52}, 2));
+  EXPECT_EQ(along.regime, SlamRegime::kForward);
+  EXPECT_NEAR(along.forward_share, 0.52 / std::sqrt(0.02 * 0.02 + 0.15 * 0.15 + 0.52 * 0.52), 1e-9);
+  EXPECT_NE(along.reason.find("forward"), std::string::npos) << along.reason;
+  RegimeChoice across = shallow;
+  EXPECT_TRUE(DecideRegimeFromMotion(&across, {0.33, 0.02, 0.01}, 1));
+  EXPECT_EQ(across.regime, SlamRegime::kNadir);
+  EXPECT_LT(across.forward_share, 0.05);
+  RegimeChoice still = shallow;  // a static start: the options as given at the last frame
+  EXPECT_FALSE(DecideRegimeFromMotion(&still, {0, 0, 0.01}, kRegimeLastFrame - 1));
+  EXPECT_TRUE(DecideRegimeFromMotion(&still, {0, 0, 0.01}, kRegimeLastFrame));
+  EXPECT_EQ(still.regime, SlamRegime::kNadir);
 }
 
 TEST(SlamRegime, ExplicitRegimeWins) {
   SlamOptions o;
   o.regime = SlamRegime::kForward;
-  const RegimeChoice c = ChooseRegime(o, WithDepths(Spread(5.5f, 6.5f, 200)));
+  const RegimeChoice c = ChooseRegimeFromDepths(o, WithDepths(Spread(5.5f, 6.5f, 200)));
   EXPECT_EQ(c.regime, SlamRegime::kForward);
+  EXPECT_TRUE(c.decided);
   EXPECT_FALSE(c.automatic);
 }
 

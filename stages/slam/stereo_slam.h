@@ -59,7 +59,7 @@ struct LoopClosure {
 /// Counters and timings of a run.
 struct SlamStatistics {
   /// The geometry regime the run used (never kAuto) and why: "forward: first frame's stereo depths span ..."
-  /// (slam_regime.h); chosen at the first frame.
+  /// (slam_regime.h); chosen at the first frame, or by the motion of the next ones.
   SlamRegime regime = SlamRegime::kNadir;
   std::string regime_reason;
   int frames = 0, tracked = 0, relocalised = 0, prior_only = 0;
@@ -113,9 +113,12 @@ class StereoSlam {
   FrameResult Track(int64_t t_ns, StereoFeatures features, const std::optional<PosePrior>& prior);
 
   const RectifiedStereo& camera() const;  ///< the rectified camera the features must be computed for
-  /// The options in effect: those given to the constructor, after the first frame with the regime's
-  /// (OptionsForRegime; the features of later frames must be computed with these)
+  /// The options in effect: those given to the constructor, once the regime is decided with the regime's
+  /// (OptionsForRegime; the features of later frames must be computed with these).
   const SlamOptions& options() const;
+  /// The regime (slam_regime.h) is decided: options() no longer changes. Decided at the first frame when
+  /// its stereo depths are deep or the regime is given, else by the camera's motion within 10 frames.
+  bool RegimeDecided() const;
   const ScalePyramid& pyramid() const;  ///< scale pyramid of the options
 
   /// Loop closing, global BA; returns trajectories, map and statistics. Call once.
