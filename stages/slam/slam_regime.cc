@@ -65,7 +65,7 @@ bool DecideRegimeFromMotion(RegimeChoice* c, const Eigen::Vector3d& t, int frame
   c->forward_share = std::abs(t.z()) / moved;
   c->regime = c->forward_share >= kForwardMotionShare ? SlamRegime::kForward : SlamRegime::kNadir;
   c->reason = fmt::format(
-      "{}: {}; camera moves along its optical axis by |t_z|/|t| = {:.2f} ({} {:.1f}) over "
+      "{}: {}; camera motion along its optical axis |t_z|/|t| = {:.2f} ({} {:.1f}) over "
       "{:.2f} m to frame {}",
       ToString(c->regime), DepthText(*c), c->forward_share, c->regime == SlamRegime::kForward ? ">=" : "<",
       kForwardMotionShare, moved, frame_index);
