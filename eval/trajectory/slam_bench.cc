@@ -107,6 +107,9 @@ int main(int argc, char** argv) {
           o = rs::OptionsForRegime(opt, rs::SlamRegime::kForward);
           if (fs::exists(raw)) {
             const rs::LidarDisparityCheck c = rs::CheckDisparityAgainstLidar(raw, o);
+            const rs::SlamRunReport k = rs::RunKittiRaw(raw, opt);
+            std::cout << k.Summary("KITTI raw 0023 (7 frames) against OXTS positions") << "\n"
+                      << SelfCalibration(k) << "\n";
             std::cout << fmt::format(
                 "KITTI raw 0023 stereo vs LiDAR ({} features): {} matches, median disparity deficit "
                 "{:.3f} px, median depth ratio stereo/LiDAR {:.4f}\n",
