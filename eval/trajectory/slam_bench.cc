@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 
 #include "sim/simulate.h"
+#include "stages/slam/slam_regime.h"
 #include "eval/trajectory/slam_datasets.h"
 
 namespace {
@@ -18,9 +19,12 @@ namespace {
 // SlamStatistics).
 std::string SelfCalibration(const rs::SlamRunReport& r) {
   const rs::SlamStatistics& s = r.result.stats;
-  return fmt::format(
-      "  disparity offset implied by the keyframes' motion {:+.3f} px +- {:.3f} ({} samples), applied {:+.3f} px",
-      s.disparity_offset_px, s.disparity_offset_sigma_px, s.disparity_offset_samples, s.disparity_offset_applied_px);
+  return "  " + s.regime_reason + "\n" +
+         fmt::format(
+             "  disparity offset implied by the keyframes' motion {:+.3f} px +- {:.3f} ({} samples), applied {:+.3f} "
+             "px",
+             s.disparity_offset_px, s.disparity_offset_sigma_px, s.disparity_offset_samples,
+             s.disparity_offset_applied_px);
 }
 
 }  // namespace
@@ -66,6 +70,10 @@ int main(int argc, char** argv) {
   std::cout << "load average (1/5/15 min) at start: " << load() << "\n";
   try {
     rs::SlamOptions opt;
+    if (const char* f = std::getenv("SLAM_REGIME"))
+      opt.regime = std::string(f) == "forward" ? rs::SlamRegime::kForward
+                   : std::string(f) == "nadir" ? rs::SlamRegime::kNadir
+                                               : rs::SlamRegime::kAuto;
     if (const char* f = std::getenv("SLAM_FEATURES")) opt.features = std::atoi(f);
     if (const char* f = std::getenv("SLAM_KF_GAP")) opt.keyframe_max_gap = std::atoi(f);
     if (const char* f = std::getenv("SLAM_BA_KF")) opt.local_ba_keyframes = std::atoi(f);
@@ -90,22 +98,18 @@ int main(int argc, char** argv) {
         const rs::SlamRunReport r = rs::RunKittiOdometry(kitti, opt);
         std::cout << r.Summary("KITTI 06 clip (options as given)") << "\n" << SelfCalibration(r) << "\n";
         if (!only_kitti) {  // a sweep (--only-kitti) runs the options as given only
-          // The KITTI configuration (docs/stages/slam.md; not the defaults: it drifts on the simulated loop).
+          // The other regime for comparison (the defaults choose forward here: slam_regime.h).
           rs::SlamOptions o = opt;
-          o.features = 2000;
-          o.triangulation_neighbours = 5;
-          o.local_ba_iterations = 5;
-          o.keyframe_max_gap = 5;
-          o.global_ba_frames = false;
-          o.local_ba_fixed_size = true;
+          o.regime = rs::SlamRegime::kNadir;
           const rs::SlamRunReport a = rs::RunKittiOdometry(kitti, o);
-          std::cout << a.Summary(
-                           "KITTI 06 clip, KITTI configuration (2000 features, triangulation 5, local BA 5 "
-                           "iterations fixed-size, keyframe gap 5, keyframe-only global BA)")
-                    << "\n"
+          std::cout << a.Summary("KITTI 06 clip, regime nadir (the options as given)") << "\n"
                     << SelfCalibration(a) << "\n";
+          o = rs::OptionsForRegime(opt, rs::SlamRegime::kForward);
           if (fs::exists(raw)) {
             const rs::LidarDisparityCheck c = rs::CheckDisparityAgainstLidar(raw, o);
+            const rs::SlamRunReport k = rs::RunKittiRaw(raw, opt);
+            std::cout << k.Summary("KITTI raw 0023 (7 frames) against OXTS positions") << "\n"
+                      << SelfCalibration(k) << "\n";
             std::cout << fmt::format(
                 "KITTI raw 0023 stereo vs LiDAR ({} features): {} matches, median disparity deficit "
                 "{:.3f} px, median depth ratio stereo/LiDAR {:.4f}\n",
@@ -146,6 +150,10 @@ int main(int argc, char** argv) {
         const rs::SlamRunReport r = rs::RunSimulated(sim_dir, opt, priors);
         std::cout << r.Summary("simulated " + sim_preset + (priors ? " (priors 1 m)" : " (no priors)")) << "\n"
                   << SelfCalibration(r) << "\n";
+        for (const auto& f : r.frames)
+          if (f.status != rs::FrameStatus::kTracked)
+            std::cout << "  frame " << f.index << " " << rs::ToString(f.status) << ": " << f.features << " features, "
+                      << f.stereo_features << " stereo, " << f.inliers << " inliers\n";
         if (std::getenv("SLAM_BENCH_VERBOSE"))
           for (size_t i = 0; i < r.rot_rel_first_err.size(); ++i)
             std::cout << fmt::format(

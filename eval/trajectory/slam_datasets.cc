@@ -11,10 +11,12 @@
 #include <random>
 #include <stdexcept>
 
+#include <GeographicLib/LocalCartesian.hpp>
 #include <fmt/format.h>
 #include <opencv2/core.hpp>
 #include <zlib.h>
 
+#include "formats/flight_log/kitti_oxts.h"
 #include "formats/rectified_stereo.h"
 #include "formats/stereo/image_io.h"
 #include "formats/stereo/rectifier.h"
@@ -257,6 +259,31 @@ SlamRunReport RunKittiOdometry(const std::filesystem::path& folder, const SlamOp
   rep.ate = ComputeAte(pairs, TrajectoryAlignment::kSE3);
   rep.path_length_m = PathLength(pairs);
   RotationRelFirst(pairs, &rep);
+  return rep;
+}
+
+SlamRunReport RunKittiRaw(const std::filesystem::path& drive, const SlamOptions& options) {
+  const StereoSource source = OpenStereoSource(drive, "kitti-raw");
+  if (!source.calibration()) throw std::runtime_error(drive.string() + ": no calibration");
+  SlamRunReport rep = RunSource(source, *source.calibration(), options, nullptr, -1, nullptr);
+  const FlightTrack oxts = ReadKittiOxts(drive / "oxts");
+  if (oxts.fixes.size() != source.frames().size())
+    throw std::runtime_error(
+        fmt::format("{}: {} OXTS records for {} frames", drive.string(), oxts.fixes.size(), source.frames().size()));
+  const GnssFix& o = oxts.fixes.front();
+  const GeographicLib::LocalCartesian enu(o.lat_deg, o.lon_deg, o.alt_m);
+  Trajectory gt;
+  for (size_t i = 0; i < oxts.fixes.size(); ++i) {
+    const GnssFix& f = oxts.fixes[i];
+    StampedPose p;
+    p.t_ns = source.frames()[i].t_ns;
+    enu.Forward(f.lat_deg, f.lon_deg, f.alt_m, p.T_world_frame.translation().x(), p.T_world_frame.translation().y(),
+                p.T_world_frame.translation().z());
+    gt.poses.push_back(p);
+  }
+  const PosePairs pairs = AssociateByIndex(rep.result.frames, gt);
+  rep.ate = ComputeAte(pairs, TrajectoryAlignment::kSE3);
+  rep.path_length_m = PathLength(pairs);
   return rep;
 }
 

@@ -1,6 +1,6 @@
 #pragma once
-// Runs StereoSlam over the public test sequences with metric truth (KITTI odometry clip, EuRoC
-// micro, a simulator folder) and scores it. Shared by slam_test and slam_bench.
+// Runs StereoSlam over the public test sequences with metric truth (KITTI odometry clip, KITTI raw
+// drive, EuRoC micro, a simulator folder) and scores it. Shared by slam_test and slam_bench.
 
 #include <filesystem>
 #include <string>
@@ -43,6 +43,11 @@ SlamRunReport RunKittiOdometry(const std::filesystem::path& folder, const SlamOp
 /// compared through cam0's T_BS and the rectifying rotation.
 SlamRunReport RunEuroc(const std::filesystem::path& dataset, const std::filesystem::path& gt_tum,
                        const SlamOptions& options);
+/// KITTI raw drive (rectified colour pairs read as grey) against its OXTS GPS/INS positions (local ENU
+/// at the first record), associated by index, positions only: the OXTS unit sits ~1 m from the camera,
+/// a constant offset while the car drives straight (SE(3) alignment absorbs it, not a turn).
+/// rot_rel_first_* are not computed (the OXTS attitude is of the vehicle).
+SlamRunReport RunKittiRaw(const std::filesystem::path& drive, const SlamOptions& options);
 /// Plain layout written by the simulator with truth/trajectory.tum (camera poses). use_priors: feed
 /// the true positions (+ noise sigma_m, fixed seed) as priors.
 SlamRunReport RunSimulated(const std::filesystem::path& folder, const SlamOptions& options, bool use_priors,

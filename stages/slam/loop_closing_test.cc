@@ -278,5 +278,30 @@ TEST(TrackingLoss, NewSegmentIsMergedByTheReturnLeg) {
   EXPECT_LT(run.ate.translation_m.rmse, 2.5 * clean.ate.translation_m.rmse);
 }
 
+// A car rig whose camera sees only the road 2.7-4.6 m ahead: the first frame's depths are shallow, so
+// the regime is chosen by the motion (along the optical axis: forward) at frame 1, which raises the
+// feature count for frame 2 on. Pipelined and sequential runs must stay bit-identical through that.
+TEST(Regime, ShallowCarViewIsForwardByItsMotion) {
+  SimulationOptions o = SmallRig(PresetOptions("car"));
+  o.num_frames = 12;
+  const fs::path dir = Rendered("car", o);
+  SlamOptions opt;
+  const SlamRunReport piped = RunSimulated(dir, opt, false);
+  opt.parallel = false;
+  const SlamRunReport sequential = RunSimulated(dir, opt, false);
+  const SlamStatistics& s = piped.result.stats;
+  EXPECT_EQ(s.regime, SlamRegime::kForward) << s.regime_reason;
+  EXPECT_NE(s.regime_reason.find("optical axis"), std::string::npos) << s.regime_reason;
+  EXPECT_EQ(s.tracked, 12);
+  ASSERT_EQ(piped.frames.size(), 12u);
+  EXPECT_LE(piped.frames[1].features, 1200);  // before the choice: the options as given
+  EXPECT_GT(piped.frames[2].features, 1200);  // after it: the forward regime's 2000
+  ASSERT_EQ(piped.result.frames.poses.size(), sequential.result.frames.poses.size());
+  for (size_t i = 0; i < piped.result.frames.poses.size(); ++i)
+    EXPECT_TRUE(piped.result.frames.poses[i].T_world_frame.matrix() ==
+                sequential.result.frames.poses[i].T_world_frame.matrix())
+        << "frame " << i;
+}
+
 }  // namespace
 }  // namespace rs

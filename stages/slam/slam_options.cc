@@ -13,6 +13,15 @@ void Require(bool ok, const char* name, double value, const char* rule) {
 }
 }  // namespace
 
+const char* ToString(SlamRegime regime) {
+  switch (regime) {
+    case SlamRegime::kAuto: return "auto";
+    case SlamRegime::kForward: return "forward";
+    case SlamRegime::kNadir: return "nadir";
+  }
+  return "?";
+}
+
 void SlamOptions::Check() const {
   Require(features >= 100, "features", features, "features >= 100");
   Require(pyramid_levels >= 1 && pyramid_levels <= 12, "pyramid_levels", pyramid_levels, "1 <= pyramid_levels <= 12");

@@ -4,8 +4,19 @@
 
 namespace rs {
 
+/// Geometry regime (slam_regime.h): which mapping the survey's view needs.
+enum class SlamRegime {
+  kAuto,     ///< chosen from the first frame's stereo depth range (slam_regime.h)
+  kForward,  ///< forward-looking (car): more features, keyframe triangulation (OptionsForRegime)
+  kNadir,    ///< nadir (drone): the options as given
+};
+/// "auto", "forward", "nadir".
+const char* ToString(SlamRegime regime);
+
 /// Every tunable of StereoSlam. Defaults suit 10-20 Hz rectified stereo of 0.1-0.6 m baseline.
 struct SlamOptions {
+  SlamRegime regime = SlamRegime::kAuto;  ///< forward: features, triangulation, local BA, keyframe gap set by
+                                          ///< OptionsForRegime; nadir: all as given; auto: chosen by the first frame
   // --- front end
   int features = 1200;                ///< ORB features kept per image after grid spreading
   int pyramid_levels = 8;             ///< scale pyramid levels

@@ -33,6 +33,16 @@ std::optional<FrameResult> SlamPipeline::Push(int64_t t_ns, const cv::Mat& left,
         fmt::format("SlamPipeline::Push: expected two 8-bit grey {}x{} images, got {}x{} and {}x{}", cam.width,
                     cam.height, left.cols, left.rows, right.cols, right.rows));
   if (!overlap_) return slam_->Track(t_ns, left, right, prior);
+  if (!pending_ && !slam_->RegimeDecided()) {
+    // Until the first frames have decided the regime, and with it the front end's options
+    // (slam_regime.h) that the next extraction reads, each frame is tracked before anything runs beside it.
+    const double c0 = ThreadCpuSeconds();
+    std::optional<FrameResult> previous = std::exchange(held_, slam_->Track(t_ns, left, right, prior));
+    const double cpu = ThreadCpuSeconds() - c0;
+    times_.track_cpu_s += cpu;
+    times_.two_core_wall_s += cpu;
+    return previous;
+  }
   Pending next;
   next.t_ns = t_ns;
   next.left = left;
@@ -66,7 +76,7 @@ std::optional<FrameResult> SlamPipeline::Push(int64_t t_ns, const cv::Mat& left,
         return e;
       },
       left, right, std::move(right_orb));
-  std::optional<FrameResult> out;
+  std::optional<FrameResult> out = std::exchange(held_, std::nullopt);
   double track_cpu = 0;
   if (pending_) out = TrackPending(&track_cpu);
   pending_ = std::move(next);
@@ -75,6 +85,7 @@ std::optional<FrameResult> SlamPipeline::Push(int64_t t_ns, const cv::Mat& left,
 }
 
 std::optional<FrameResult> SlamPipeline::Flush() {
+  if (held_) return std::exchange(held_, std::nullopt);  // the last frame was tracked at its Push
   if (!pending_) return std::nullopt;
   double track_cpu = 0;
   FrameResult r = TrackPending(&track_cpu);

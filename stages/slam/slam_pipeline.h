@@ -26,7 +26,9 @@ struct SlamPipelineTimes {
   double two_core_wall_s = 0;
 };
 
-/// Feeds frames to a StereoSlam one frame late. Usage:
+/// Feeds frames to a StereoSlam one frame late (until the regime is decided, StereoSlam::RegimeDecided, a
+/// frame is tracked at its Push, as it may change the options the next extraction reads; its result
+/// still comes with the next Push). Usage:
 ///   SlamPipeline p(&slam);
 ///   for (...) if (auto r = p.Push(t_ns, left, right, prior)) use(*r);   // r: the previous frame
 ///   if (auto r = p.Flush()) use(*r);                                     // the last frame
@@ -71,6 +73,7 @@ class SlamPipeline {
   StereoSlam* slam_;
   bool overlap_;
   std::optional<Pending> pending_;
+  std::optional<FrameResult> held_;  // a frame tracked at its Push (regime undecided), for the next Push or Flush
   SlamPipelineTimes times_;
   double pending_track_cpu_ = 0;  // CPU of the tracking that ran beside the pending frame's extraction
 };

@@ -24,6 +24,11 @@ namespace {
 const OptionTable<SlamOptions>& SlamTable() {
   static const auto t =
       OptionTable<SlamOptions>()
+          .AddEnum(
+              "regime", &SlamOptions::regime,
+              {{"auto", SlamRegime::kAuto}, {"forward", SlamRegime::kForward}, {"nadir", SlamRegime::kNadir}},
+              "geometry regime: forward (car) sets features, triangulation, local BA and keyframe gap; nadir "
+              "(drone) keeps the options as given; auto chooses by the first frames' stereo depth range and motion")
           .Add("features", &SlamOptions::features, "ORB features kept per image after grid spreading")
           .Min(100)
           .Add("pyramid_levels", &SlamOptions::pyramid_levels, "scale pyramid levels")
@@ -264,6 +269,8 @@ void SlamStage::Run(StageContext& ctx, const SlamStageOptions& o) const {
   ctx.summary().frames_total = static_cast<int64_t>(frames.size());
   ctx.summary().frames_computed = static_cast<int64_t>(frames.size()) - skipped;
   for (const auto& [k, v] : by_status) ctx.Count("frames_" + k, v);
+  // Which regime the first frames chose and why (slam_regime.h).
+  ctx.summary().counts["regime"] = s.regime_reason;
   ctx.Count("keyframes", s.keyframes);
   ctx.Count("map_points", s.map_points);
   ctx.Count("frames_gnss_positioned", s.gnss_positioned);

@@ -12,6 +12,7 @@
 #include "stages/slam/disparity_calibration.h"
 #include "stages/slam/global_refinement.h"
 #include "stages/slam/loop_closing.h"
+#include "stages/slam/slam_regime.h"
 #include "stages/slam/stereo_slam_internal.h"
 
 namespace rs {
@@ -27,10 +28,10 @@ const char* ToString(FrameStatus status) {
 
 std::string SlamStatistics::BriefReport() const {
   return fmt::format(
-      "{} frames ({} tracked, {} relocalised, {} prior-only of which {} GNSS-positioned), {} keyframes, "
+      "regime {}, {} frames ({} tracked, {} relocalised, {} prior-only of which {} GNSS-positioned), {} keyframes, "
       "{} points, {} segments, {} loops closed ({} rejected of {} candidates)",
-      frames, tracked, relocalised, prior_only, gnss_positioned, keyframes, map_points, segments, loops_closed,
-      loops_rejected, loop_candidates);
+      ToString(regime), frames, tracked, relocalised, prior_only, gnss_positioned, keyframes, map_points, segments,
+      loops_closed, loops_rejected, loop_candidates);
 }
 
 using stereo_slam_internal::Clock;
@@ -51,6 +52,35 @@ void StereoSlam::Impl::EstimateDisparityOffsetOfMap() {
   stats.disparity_offset_samples = e.samples;
 }
 
+// The regime (slam_regime.h) from the first frame's features, once. True when the front end's options
+// changed (the frame's features should be extracted again).
+bool StereoSlam::Impl::ChooseRegimeFrom(const StereoFeatures& first) {
+  if (regime_started) return false;
+  regime_started = true;
+  regime = ChooseRegimeFromDepths(opt, first);
+  return ApplyRegime();
+}
+
+// A shallow first view: the regime from the camera's motion relative to the first frame.
+void StereoSlam::Impl::DecideRegimeAfter(const TrackFrame& cur, FrameStatus status) {
+  if (regime.decided || cur.index < 1) return;
+  Eigen::Vector3d t = Eigen::Vector3d::Zero();  // a lost frame or another segment has no motion to judge
+  if (status != FrameStatus::kPriorOnly && segment == 0)
+    t = map.keyframes[0].T_cam_world * cur.T_cam_world.inverse().translation();
+  if (DecideRegimeFromMotion(&regime, t, cur.index)) ApplyRegime();
+}
+
+// Records the regime; once decided, the options follow it (for the frames after this one).
+bool StereoSlam::Impl::ApplyRegime() {
+  stats.regime = regime.regime;
+  stats.regime_reason = regime.reason;
+  if (!regime.decided) return false;
+  const SlamOptions chosen = OptionsForRegime(opt, regime.regime);
+  const bool front_end_changed = chosen.features != opt.features;
+  opt = chosen;
+  return front_end_changed;
+}
+
 FrameResult StereoSlam::Impl::Track(int64_t t_ns, const cv::Mat& left, const cv::Mat& right,
                                     const std::optional<PosePrior>& prior) {
   if (finished) throw std::invalid_argument("StereoSlam::Track called after Finish");
@@ -61,6 +91,7 @@ FrameResult StereoSlam::Impl::Track(int64_t t_ns, const cv::Mat& left, const cv:
                     cam.height, left.cols, left.rows, right.cols, right.rows));
   const auto t0 = Clock::now();
   StereoFeatures f = ExtractStereoFeatures(left, right, cam, opt, pyr);
+  if (ChooseRegimeFrom(f)) f = ExtractStereoFeatures(left, right, cam, opt, pyr);
   stats.track_s += Seconds(t0);
   return Track(t_ns, std::move(f), prior);
 }
@@ -71,6 +102,7 @@ FrameResult StereoSlam::Impl::Track(int64_t t_ns, StereoFeatures features, const
     throw std::invalid_argument(
         fmt::format("StereoSlam::Track: time {} ns does not follow {} ns", t_ns, records.back().t_ns));
   const auto t0 = Clock::now();
+  ChooseRegimeFrom(features);
   TrackFrame cur;
   cur.index = static_cast<int>(records.size());
   cur.t_ns = t_ns;
@@ -188,8 +220,9 @@ FrameResult StereoSlam::Impl::Track(int64_t t_ns, StereoFeatures features, const
   rec.status = status;
   rec.segment = segment;
   if (prior && prior->has_position) rec.p_prior = prior->T_world_cam.translation();
-  // A keyframe's matches are in the map already; a tracked frame's join the final global BA.
-  if (status != FrameStatus::kPriorOnly && !result.keyframe && opt.global_ba_frames) {
+  // A keyframe's matches are in the map already; a tracked frame's join the final global BA
+  // (global_ba_frames) or re-solve its pose against the final map (RefineFramesOnFinalMap).
+  if (status != FrameStatus::kPriorOnly && !result.keyframe) {
     for (size_t i = 0; i < cur.f.size(); ++i) {
       if (cur.mp[i] < 0) continue;
       const cv::KeyPoint& kp = cur.f.keypoints[i];
@@ -205,6 +238,7 @@ FrameResult StereoSlam::Impl::Track(int64_t t_ns, StereoFeatures features, const
   result.status = status;
   result.segment = segment;
   result.T_world_cam = cur.T_cam_world.inverse();
+  DecideRegimeAfter(cur, status);
   last = std::move(cur);
   has_last = true;
   stats.track_s += Seconds(t0);
@@ -230,7 +264,7 @@ SlamResult StereoSlam::Impl::Finish() {
       std::vector<size_t> record_of;
       for (size_t i = 0; i < records.size(); ++i) {
         FrameRecord& r = records[i];
-        if (r.observations.empty()) continue;
+        if (r.observations.empty() || !opt.global_ba_frames) continue;
         RefinedFrame f;
         f.T_cam_world = r.T_cam_ref * map.keyframes[r.ref_kf].T_cam_world;
         f.observations = std::move(r.observations);
@@ -244,6 +278,7 @@ SlamResult StereoSlam::Impl::Finish() {
         if (frames[j].refined) r.T_cam_ref = frames[j].T_cam_world * map.keyframes[r.ref_kf].T_cam_world.inverse();
       }
     }
+    if (!opt.global_ba_frames) RefineFramesOnFinalMap();
   }
   out.frames.source = "StereoSlam";
   for (size_t i = 0; i < records.size(); ++i) {
@@ -300,6 +335,7 @@ FrameResult StereoSlam::Track(int64_t t_ns, StereoFeatures features, const std::
 const RectifiedStereo& StereoSlam::camera() const { return impl_->cam; }
 const SlamOptions& StereoSlam::options() const { return impl_->opt; }
 const ScalePyramid& StereoSlam::pyramid() const { return impl_->pyr; }
+bool StereoSlam::RegimeDecided() const { return impl_->regime_started && impl_->regime.decided; }
 
 SlamResult StereoSlam::Finish() { return impl_->Finish(); }
 

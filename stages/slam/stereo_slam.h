@@ -58,6 +58,10 @@ struct LoopClosure {
 
 /// Counters and timings of a run.
 struct SlamStatistics {
+  /// The geometry regime the run used (never kAuto) and why: "forward: first frame's stereo depths span ..."
+  /// (slam_regime.h); chosen at the first frame, or by the motion of the next ones.
+  SlamRegime regime = SlamRegime::kNadir;
+  std::string regime_reason;
   int frames = 0, tracked = 0, relocalised = 0, prior_only = 0;
   int gnss_positioned = 0;  ///< prior-only frames placed mostly (weight >= 0.5) by the flight log
   int keyframes = 0, map_points = 0, segments = 1;
@@ -73,7 +77,7 @@ struct SlamStatistics {
   double track_s = 0;          ///< wall time in Track (front end + tracking + local mapping)
   double local_mapping_s = 0;  ///< of which local mapping (culling, fusion, local BA)
   double finish_s = 0;         ///< wall time of Finish (loop closing + global BA)
-  /// "95 frames (95 tracked, 0 relocalised, 0 prior-only), 31 keyframes, 9120 points, 0 loops".
+  /// "regime nadir, 95 frames (95 tracked, 0 relocalised, 0 prior-only), 31 keyframes, 9120 points, 0 loops".
   std::string BriefReport() const;
 };
 
@@ -109,8 +113,13 @@ class StereoSlam {
   FrameResult Track(int64_t t_ns, StereoFeatures features, const std::optional<PosePrior>& prior);
 
   const RectifiedStereo& camera() const;  ///< the rectified camera the features must be computed for
-  const SlamOptions& options() const;     ///< the options given to the constructor
-  const ScalePyramid& pyramid() const;    ///< scale pyramid of the options
+  /// The options in effect: those given to the constructor, once the regime is decided with the regime's
+  /// (OptionsForRegime; the features of later frames must be computed with these).
+  const SlamOptions& options() const;
+  /// The regime (slam_regime.h) is decided: options() no longer changes. Decided at the first frame when
+  /// its stereo depths are deep or the regime is given, else by the camera's motion within 10 frames.
+  bool RegimeDecided() const;
+  const ScalePyramid& pyramid() const;  ///< scale pyramid of the options
 
   /// Loop closing, global BA; returns trajectories, map and statistics. Call once.
   SlamResult Finish();

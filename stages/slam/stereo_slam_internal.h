@@ -18,6 +18,7 @@
 #include "stages/slam/pose_optimizer.h"
 #include "stages/slam/slam_map.h"
 #include "stages/slam/slam_options.h"
+#include "stages/slam/slam_regime.h"
 #include "stages/slam/stereo_features.h"
 #include "stages/slam/stereo_slam.h"
 
@@ -78,6 +79,8 @@ struct StereoSlam::Impl {
   std::vector<int> point_mark;                     // last frame index a point was put in the local map
   std::vector<std::pair<int, int>> recent_points;  // (point, keyframe that created it)
   SlamStatistics stats;
+  RegimeChoice regime;          // slam_regime.h: chosen by the first frame, or by the motion of the next ones
+  bool regime_started = false;  // the first frame has been seen
   bool finished = false;
 
   // Tracking (stereo_slam_tracking.cc).
@@ -112,7 +115,13 @@ struct StereoSlam::Impl {
   void AddDisparityOffset(StereoFeatures* f, double offset_px) const;
   void ApplyDisparitySelfCalibration();
 
+  // Non-key frames re-solved against the final map (stereo_slam_frames.cc).
+  void RefineFramesOnFinalMap();
+
   // Orchestration and Finish (stereo_slam.cc).
+  bool ChooseRegimeFrom(const StereoFeatures& first);
+  void DecideRegimeAfter(const TrackFrame& cur, FrameStatus status);
+  bool ApplyRegime();
   void EstimateDisparityOffsetOfMap();
   FrameResult Track(int64_t t_ns, const cv::Mat& left, const cv::Mat& right, const std::optional<PosePrior>& prior);
   FrameResult Track(int64_t t_ns, StereoFeatures features, const std::optional<PosePrior>& prior);

@@ -59,7 +59,10 @@ int StereoSlam::Impl::CreateKeyframe(TrackFrame* cur, bool new_segment) {
     map.AddObservation(p, id, static_cast<int>(i));
     touched.push_back(p);
   }
-  // New points from stereo: every close one, and at least the 100 nearest.
+  // New points from stereo: every close one, and at least the 100 nearest; the map's first keyframe
+  // takes every stereo feature (ORB-SLAM2's stereo initialisation): until triangulation adds points,
+  // its far features are all the next frames can take their rotation from.
+  const bool first_of_map = id == 0;
   std::vector<std::pair<float, int>> by_depth;
   for (size_t i = 0; i < cur->f.size(); ++i)
     if (cur->f.depth_m[i] > 0 && map.keyframes[id].points[i] < 0)
@@ -68,7 +71,7 @@ int StereoSlam::Impl::CreateKeyframe(TrackFrame* cur, bool new_segment) {
   const Eigen::Isometry3d T_world_cam = cur->T_cam_world.inverse();
   int created = 0;
   for (auto& [d, i] : by_depth) {
-    if (d > cur->close_depth_m && created >= 100) break;
+    if (!first_of_map && d > cur->close_depth_m && created >= 100) break;
     const int p = map.AddPoint(T_world_cam * Backproject(cur->f, i), id, i);
     map.UpdatePointGeometry(p, pyr);
     recent_points.emplace_back(p, id);
