@@ -239,7 +239,7 @@ const OptionTable<DisparityStageOptions>& DisparityStageOptions::Table() {
 StageInfo DisparityStage::Info() {
   StageInfo info;
   info.name = "disparity";
-  info.version = 1;
+  info.version = 2;  // 2: a frame whose predecessor is unreadable is computed without the temporal prior
   info.doc =
       "Dense road disparity per frame: GPT-SGM (road model, perspective transformation, semi-global "
       "matching over a small residual range), plain SGM where the road model is unreliable.";

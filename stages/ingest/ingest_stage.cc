@@ -122,7 +122,7 @@ const OptionTable<IngestOptions>& IngestOptions::Table() {
 StageInfo IngestStage::Info() {
   StageInfo info;
   info.name = "ingest";
-  info.version = 1;
+  info.version = 2;  // 2: skipped frames listed in ingest.json; log coverage checked on every listed frame
   info.doc =
       "Lists stereo frames, checks and rectifies them, reads the flight log and gives each frame a "
       "time-aligned GNSS/attitude prior.";

@@ -200,7 +200,7 @@ const OptionTable<SlamStageOptions>& SlamStageOptions::Table() {
 StageInfo SlamStage::Info() {
   StageInfo info;
   info.name = "slam";
-  info.version = 2;  // 2: frame_status.csv gained the position column; lost frames extrapolated / GNSS-seeded
+  info.version = 3;  // 3: regime chosen from the first frames; frames re-solved after global BA; bad frames skipped
   info.doc =
       "Stereo visual SLAM (ORB features, stereo depth, motion-only and local bundle adjustment, loop "
       "closing, global BA) over the frames in time order, GNSS positions as priors.";
