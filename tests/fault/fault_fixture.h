@@ -70,21 +70,6 @@ inline std::vector<std::string> Differences(const std::map<std::string, std::str
   return diff;
 }
 
-/// Runs `prefix roadsurvey <args>` through the shell: `prefix` sets the environment or limits
-/// (`ulimit -f 600;`, `ROADSURVEY_INJECT_WRITE_FAILURE=... `).
-inline ProgramResult RunProgramWith(const std::string& prefix, const std::string& args) {
-  ProgramResult r;
-  const std::string cmd = "(" + prefix + " " + ProgramPath().string() + " " + args + ") 2>&1";
-  FILE* pipe = ::popen(cmd.c_str(), "r");
-  if (!pipe) return r;
-  std::array<char, 4096> buf;
-  size_t n;
-  while ((n = std::fread(buf.data(), 1, buf.size(), pipe)) > 0) r.output.append(buf.data(), n);
-  const int status = ::pclose(pipe);
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
-
 /// Polls `done` every few milliseconds until it holds or `timeout_s` passes; returns whether it held.
 template <typename Predicate>
 bool WaitUntil(Predicate&& done, double timeout_s = 60) {

@@ -25,10 +25,11 @@ struct ProgramResult {
   std::string output;  ///< stdout and stderr together
 };
 
-/// Runs `roadsurvey <args>` through the shell and captures its output.
-inline ProgramResult RunProgram(const std::string& args) {
+/// Runs `prefix roadsurvey <args>` through the shell and captures its output; `prefix` sets the
+/// environment or limits (`ulimit -f 600;`, `VAR=value`).
+inline ProgramResult RunProgramWith(const std::string& prefix, const std::string& args) {
   ProgramResult r;
-  const std::string cmd = ProgramPath().string() + " " + args + " 2>&1";
+  const std::string cmd = "(" + prefix + " " + ProgramPath().string() + " " + args + ") 2>&1";
   FILE* pipe = ::popen(cmd.c_str(), "r");
   if (!pipe) return r;
   std::array<char, 4096> buf;
@@ -38,6 +39,9 @@ inline ProgramResult RunProgram(const std::string& args) {
   r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return r;
 }
+
+/// Runs `roadsurvey <args>` through the shell and captures its output.
+inline ProgramResult RunProgram(const std::string& args) { return RunProgramWith("", args); }
 
 inline nlohmann::json ReadJson(const std::filesystem::path& p) {
   std::ifstream in(p);
