@@ -125,6 +125,7 @@ CameraErrors CompareCameras(const std::vector<EnuCamera>& est, const std::vector
     for (int k = 0; k < 3; ++k) a[k] = std::remainder(a[k], 360.0);
     ++e.angle_frames;
     ss += a.cwiseAbs2();
+    e.mean_angle_error_deg += a;
     e.heading_max_deg = std::max(e.heading_max_deg, std::abs(a.x()));
     e.pitch_max_deg = std::max(e.pitch_max_deg, std::abs(a.y()));
     e.roll_max_deg = std::max(e.roll_max_deg, std::abs(a.z()));
@@ -135,6 +136,7 @@ CameraErrors CompareCameras(const std::vector<EnuCamera>& est, const std::vector
   e.vertical_rmse_m = std::sqrt(vv / e.frames);
   if (e.angle_frames > 0) {
     const Eigen::Vector3d rms = (ss / e.angle_frames).cwiseSqrt();
+    e.mean_angle_error_deg /= e.angle_frames;
     e.heading_rms_deg = rms.x();
     e.pitch_rms_deg = rms.y();
     e.roll_rms_deg = rms.z();
@@ -152,7 +154,9 @@ nlohmann::json CameraErrors::ToJson() const {
           {"angle_frames", angle_frames},
           {"heading_deg", {{"rms", heading_rms_deg}, {"max", heading_max_deg}}},
           {"pitch_deg", {{"rms", pitch_rms_deg}, {"max", pitch_max_deg}}},
-          {"roll_deg", {{"rms", roll_rms_deg}, {"max", roll_max_deg}}}};
+          {"roll_deg", {{"rms", roll_rms_deg}, {"max", roll_max_deg}}},
+          {"mean_angle_error_deg",
+           {{"heading", mean_angle_error_deg.x()}, {"pitch", mean_angle_error_deg.y()}, {"roll", mean_angle_error_deg.z()}}}};
 }
 
 nlohmann::json GeoreferenceEvaluation::ToJson() const {
@@ -171,9 +175,10 @@ std::string GeoreferenceEvaluation::BriefReport() const {
   auto line = [](const char* who, const CameraErrors& e) {
     return fmt::format(
         "{:<22} {:>3} frames  centre RMSE h {:.3f} m v {:.3f} m (max {:.3f} / {:.3f})  heading {:.3f}/{:.3f} deg  "
-        "pitch {:.3f}/{:.3f}  roll {:.3f}/{:.3f} (RMS/max)\n",
+        "pitch {:.3f}/{:.3f}  roll {:.3f}/{:.3f} (RMS/max); mean h/p/r {:+.3f} {:+.3f} {:+.3f} deg\n",
         who, e.frames, e.horizontal_rmse_m, e.vertical_rmse_m, e.horizontal_max_m, e.vertical_max_m, e.heading_rms_deg,
-        e.heading_max_deg, e.pitch_rms_deg, e.pitch_max_deg, e.roll_rms_deg, e.roll_max_deg);
+        e.heading_max_deg, e.pitch_rms_deg, e.pitch_max_deg, e.roll_rms_deg, e.roll_max_deg,
+        e.mean_angle_error_deg.x(), e.mean_angle_error_deg.y(), e.mean_angle_error_deg.z());
   };
   std::string s = line("georeference", ours);
   s += colmap ? line("colmap model_aligner", *colmap) : "colmap model_aligner: " + colmap_note + "\n";

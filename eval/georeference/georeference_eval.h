@@ -28,6 +28,9 @@ struct CameraErrors {
   double horizontal_rmse_m = 0, vertical_rmse_m = 0, horizontal_max_m = 0, vertical_max_m = 0;
   Eigen::Vector3d mean_error_enu_m = Eigen::Vector3d::Zero();  ///< estimate minus truth, averaged
   int angle_frames = 0;
+  /// Mean heading, pitch, roll error, deg: the part a georeference (one rotation) decides; the rest
+  /// of the RMS is the trajectory's own frame-to-frame rotation error.
+  Eigen::Vector3d mean_angle_error_deg = Eigen::Vector3d::Zero();
   double heading_rms_deg = 0, heading_max_deg = 0, pitch_rms_deg = 0, pitch_max_deg = 0, roll_rms_deg = 0,
          roll_max_deg = 0;
   nlohmann::json ToJson() const;
