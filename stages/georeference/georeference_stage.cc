@@ -8,7 +8,9 @@
 #include <map>
 #include <sstream>
 
+#include "formats/checked_file.h"
 #include "formats/frame_priors.h"
+#include "formats/geojson/geojson.h"
 #include "formats/geo/output_crs.h"
 #include "formats/trajectory/tum_trajectory.h"
 #include "stages/georeference/georeference_outputs.h"
@@ -66,6 +68,31 @@ nlohmann::json ClockOffsetReport(const fs::path& ingest_dir) {
   const auto j = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);
   if (!j.is_object() || !j.contains("flight_log") || !j["flight_log"].is_object()) return nullptr;
   return j["flight_log"].value("clock_offset", nlohmann::json());
+}
+
+// Outputs of a survey that cannot be georeferenced: every frame skipped, an empty GeoJSON, the reason.
+void PublishNotGeoreferenced(StageContext& ctx, const std::vector<FramePrior>& priors, const std::string& why) {
+  std::ostringstream csv;
+  csv << "frame,t_ns,easting_m,northing_m,height_m,lat_deg,lon_deg,h_ellipsoid_m,roll_deg,pitch_deg,yaw_deg,status\n";
+  int64_t frames = 0;
+  for (const auto& p : priors)
+    if (ctx.frame_selection().Contains(p.id.value)) {
+      csv << p.id.value << ',' << p.t_ns << ",,,,,,,,,skipped\n";
+      ++frames;
+    }
+  WriteFileChecked(ctx.out_dir() / "cameras.csv", csv.view());
+  std::ostringstream geo;
+  geojson::WriteFeatureCollection(geo, geojson::FeatureCollection{});
+  WriteFileChecked(ctx.out_dir() / "trajectory.geojson", geo.view());
+  WriteGnssResidualPlot(ctx.out_dir() / "georeference_residuals.png", {}, Eigen::Vector3d::Zero(),
+                        "not georeferenced: " + why);
+  WriteJsonAtomic(ctx.out_dir() / "georeference.json",
+                  {{"format", "roadsurvey-georeference-v1"}, {"georeferenced", false}, {"reason", why},
+                   {"frames", {{"visual", 0}, {"gnss-only", 0}, {"skipped", frames}}}});
+  ctx.summary().frames_total = frames;
+  ctx.summary().frames_computed = frames;
+  ctx.Count("frames_skipped", static_cast<double>(frames));
+  ctx.Warn("not georeferenced: " + why);
 }
 
 }  // namespace
@@ -176,9 +203,13 @@ void GeoreferenceStage::Run(StageContext& ctx, const GeoreferenceStageOptions& o
     centre.lon_deg += p.lon_deg;
     centre.h_ellipsoid_m += h;
   }
-  if (fixes.size() < 3)
-    throw InputError(InputLocation::File(priors_path.string()),
-                     fmt::format("{} frame(s) with a GNSS fix; georeferencing needs at least 3", fixes.size()));
+  if (fixes.size() < 3) {
+    // A survey without a flight log still runs: the outputs say that nothing is georeferenced.
+    const std::string why = fmt::format("{} selected frame(s) with a GNSS fix in {}; georeferencing needs at least 3",
+                                        fixes.size(), priors_path.filename().string());
+    PublishNotGeoreferenced(ctx, priors, why);
+    return;
+  }
   centre.lat_deg /= fixes.size();
   centre.lon_deg /= fixes.size();
   centre.h_ellipsoid_m /= fixes.size();
@@ -278,6 +309,7 @@ void GeoreferenceStage::Run(StageContext& ctx, const GeoreferenceStageOptions& o
   for (const auto& c : result.cameras) ++by_status[c.status];
   int outliers = 0;
   for (const auto& r : result.residuals) outliers += !r.inlier;
+  report["georeferenced"] = true;
   report["frames"] = {{"visual", by_status[CameraStatus::kVisual]},
                       {"gnss-only", by_status[CameraStatus::kGnssOnly]},
                       {"skipped", by_status[CameraStatus::kSkipped]}};

@@ -12,7 +12,7 @@
 
 namespace rs {
 
-/// Throws std::invalid_argument for no residuals.
+/// No residuals: the title alone (it says why).
 cv::Mat PlotGnssResiduals(const std::vector<GnssResidual>& residuals, const Eigen::Vector3d& sigma_axis_m,
                           const std::string& title);
 
