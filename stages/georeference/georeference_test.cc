@@ -19,8 +19,10 @@ struct Scene {
   Eigen::Isometry3d T_slam_enu;
 };
 
-Scene MakeScene(double curvature, double gnss_sigma_m, double attitude_sigma_deg, bool attitude, uint64_t seed) {
+Scene MakeScene(double curvature, double gnss_sigma_m, double attitude_sigma_deg, bool attitude, uint64_t seed,
+                const Eigen::Vector3d& lever_arm_body_m = Eigen::Vector3d::Zero()) {
   Scene s;
+  s.rig.lever_arm_body_m = lever_arm_body_m;
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> n01(0, 1);
   // Nadir camera: x = body right, y = -body forward, z = body down.
@@ -49,7 +51,8 @@ Scene MakeScene(double curvature, double gnss_sigma_m, double attitude_sigma_deg
     f.frame = i;
     f.t_ns = 1000000000LL + i * 100000000LL;
     f.T_slam_cam = s.T_slam_enu * T;
-    f.gnss_enu = p + gnss_sigma_m * Eigen::Vector3d(n01(rng), n01(rng), 1.5 * n01(rng));
+    const Eigen::Vector3d antenna = p + RotationEnuNed() * R_ned_body * lever_arm_body_m;
+    f.gnss_enu = antenna + gnss_sigma_m * Eigen::Vector3d(n01(rng), n01(rng), 1.5 * n01(rng));
     if (attitude) {
       const Eigen::Vector3d e = attitude_sigma_deg * kDeg * Eigen::Vector3d(n01(rng), n01(rng), n01(rng));
       f.R_ned_body = R_ned_body * Eigen::AngleAxisd(e.norm(), e.normalized()).toRotationMatrix();
@@ -157,6 +160,17 @@ TEST(Georeference, FramesWithoutPoseAreGnssOnlyOrSkipped) {
   EXPECT_EQ(r.cameras[10].status, CameraStatus::kGnssOnly);
   EXPECT_NEAR((r.cameras[10].p_enu - s.T_enu_cam[10].translation()).norm(), 0.0, 0.1);
   EXPECT_EQ(r.cameras[11].status, CameraStatus::kSkipped);
+}
+
+TEST(Georeference, LeverArmIsTakenOffTheFix) {
+  const Eigen::Vector3d lever(0.6, -0.3, -1.2);  // antenna ahead, left of and above the camera
+  const Scene s = MakeScene(0.03, 0.01, 0.3, true, 8, lever);
+  GeoreferenceOptions o;
+  o.fit.sigma_m = 0.02;
+  EXPECT_LT(CentreRmse(Georeference(s.frames, s.road_slam, s.rig, o), s), 0.01);
+  RigGeometry no_lever = s.rig;
+  no_lever.lever_arm_body_m.setZero();
+  EXPECT_GT(CentreRmse(Georeference(s.frames, s.road_slam, no_lever, o), s), 0.5) << "ignoring it costs its length";
 }
 
 TEST(Georeference, TooFewFixesThrows) {
