@@ -12,9 +12,9 @@
 #include "formats/frame_priors.h"
 #include "formats/geojson/geojson.h"
 #include "formats/geo/output_crs.h"
+#include "formats/slam_map/slam_map_file.h"
 #include "formats/trajectory/tum_trajectory.h"
 #include "stages/georeference/georeference_outputs.h"
-#include "stages/georeference/map_points.h"
 #include "stages/georeference/residual_plot.h"
 #include "survey/atomic_file.h"
 
@@ -186,7 +186,9 @@ void GeoreferenceStage::Run(StageContext& ctx, const GeoreferenceStageOptions& o
   const fs::path traj_path =
       ctx.input_dir(kGeoreferenceInputs.trajectory_artifact) / kGeoreferenceInputs.trajectory_file;
   const Trajectory trajectory = ReadTumTrajectory(traj_path);
-  const auto map_points = ReadMapPointPositions(ctx.input_dir(kGeoreferenceInputs.map_artifact) / kGeoreferenceInputs.map_dir);
+  std::vector<Eigen::Vector3d> map_points;  // the road plane needs positions only
+  for (const auto& p : ReadSlamMap(ctx.input_dir(kGeoreferenceInputs.map_artifact) / kGeoreferenceInputs.map_dir).points)
+    map_points.push_back(p.p_world);
   const fs::path priors_path = ctx.input_dir("priors") / "frame_priors.csv";
   const auto priors = ReadFramePriors(priors_path);
 
