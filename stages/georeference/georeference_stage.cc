@@ -6,6 +6,7 @@
 #include <cmath>
 #include <fstream>
 #include <map>
+#include <memory>
 #include <sstream>
 
 #include "formats/checked_file.h"
@@ -68,6 +69,59 @@ nlohmann::json ClockOffsetReport(const fs::path& ingest_dir) {
   const auto j = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);
   if (!j.is_object() || !j.contains("flight_log") || !j["flight_log"].is_object()) return nullptr;
   return j["flight_log"].value("clock_offset", nlohmann::json());
+}
+
+// One GeoFrame per selected frame of the priors (every frame ingest listed), its pose found by t_ns,
+// its fix in the fit's ENU frame; collects the logged accuracies and counts frames with attitude.
+std::vector<GeoFrame> MakeGeoFrames(const std::vector<FramePrior>& priors, const Trajectory& trajectory,
+                                    const FrameSelection& selection, const GeographicLib::LocalCartesian& enu,
+                                    std::vector<double>* h_acc, int* with_attitude) {
+  std::map<int64_t, Eigen::Isometry3d> pose_by_t;
+  for (const auto& sp : trajectory.poses) pose_by_t.emplace(sp.t_ns, sp.T_world_frame);
+  std::vector<GeoFrame> frames;
+  for (const auto& p : priors) {
+    if (!selection.Contains(p.id.value)) continue;
+    GeoFrame f;
+    f.frame = p.id.value;
+    f.t_ns = p.t_ns;
+    if (const auto it = pose_by_t.find(p.t_ns); it != pose_by_t.end()) f.T_slam_cam = it->second;
+    if (p.status == PriorStatus::kOk) {
+      double h;
+      EllipsoidalHeight(p, &h);
+      Eigen::Vector3d x;
+      enu.Forward(p.lat_deg, p.lon_deg, h, x.x(), x.y(), x.z());
+      f.gnss_enu = x;
+      if (!std::isnan(p.h_acc_m)) h_acc->push_back(p.h_acc_m);
+      if (p.has_attitude) {
+        f.R_ned_body = RotationFromPrior(p);
+        ++*with_attitude;
+      }
+    }
+    frames.push_back(f);
+  }
+  return frames;
+}
+
+// The algorithm's options; the GNSS sigma is the median logged accuracy, else the option's default.
+GeoreferenceOptions AlgorithmOptions(const GeoreferenceStageOptions& o, std::vector<double> h_acc) {
+  GeoreferenceOptions go;
+  go.fit.estimate_scale = o.estimate_scale;
+  go.fit.outlier_sigmas = o.outlier_sigmas;
+  go.fit.huber_k = o.huber_k;
+  go.fit.ransac_iterations = o.ransac_iterations;
+  go.fit.seed = static_cast<uint64_t>(o.seed);
+  if (h_acc.empty()) {
+    go.fit.sigma_m = o.default_gnss_sigma_m;
+  } else {
+    std::nth_element(h_acc.begin(), h_acc.begin() + static_cast<std::ptrdiff_t>(h_acc.size() / 2), h_acc.end());
+    go.fit.sigma_m = std::max(h_acc[h_acc.size() / 2], 0.005);  // RTK logs can claim millimetres
+  }
+  go.roll_source = o.roll_source;
+  go.road.window_m = o.road_window_m;
+  go.road.tolerance_m = o.road_tolerance_m;
+  go.road.max_range_m = o.road_range_m;
+  go.road.seed = static_cast<uint64_t>(o.seed);
+  return go;
 }
 
 // Outputs of a survey that cannot be georeferenced: every frame skipped, an empty GeoJSON, the reason.
@@ -220,61 +274,7 @@ void GeoreferenceStage::Run(StageContext& ctx, const GeoreferenceStageOptions& o
              "datum, not the WGS84 ellipsoid");
   GeoFrames g{GeographicLib::LocalCartesian(centre.lat_deg, centre.lon_deg, centre.h_ellipsoid_m), centre, nullptr};
 
-  // One GeoFrame per selected frame of the priors (every frame ingest listed), with its pose by t_ns.
-  std::map<int64_t, Eigen::Isometry3d> pose_by_t;
-  for (const auto& sp : trajectory.poses) pose_by_t.emplace(sp.t_ns, sp.T_world_frame);
-  std::vector<GeoFrame> frames;
-  std::vector<double> h_acc;
-  int with_attitude = 0;
-  for (const auto& p : priors) {
-    if (!ctx.frame_selection().Contains(p.id.value)) continue;
-    GeoFrame f;
-    f.frame = p.id.value;
-    f.t_ns = p.t_ns;
-    if (const auto it = pose_by_t.find(p.t_ns); it != pose_by_t.end()) f.T_slam_cam = it->second;
-    if (p.status == PriorStatus::kOk) {
-      double h;
-      EllipsoidalHeight(p, &h);
-      Eigen::Vector3d x;
-      g.enu.Forward(p.lat_deg, p.lon_deg, h, x.x(), x.y(), x.z());
-      f.gnss_enu = x;
-      if (!std::isnan(p.h_acc_m)) h_acc.push_back(p.h_acc_m);
-      if (p.has_attitude) {
-        f.R_ned_body = RotationFromPrior(p);
-        ++with_attitude;
-      }
-    }
-    frames.push_back(f);
-  }
-
-  GeoreferenceOptions go;
-  go.fit.estimate_scale = o.estimate_scale;
-  go.fit.outlier_sigmas = o.outlier_sigmas;
-  go.fit.huber_k = o.huber_k;
-  go.fit.ransac_iterations = o.ransac_iterations;
-  go.fit.seed = static_cast<uint64_t>(o.seed);
-  if (h_acc.empty()) {
-    go.fit.sigma_m = o.default_gnss_sigma_m;
-  } else {
-    std::nth_element(h_acc.begin(), h_acc.begin() + h_acc.size() / 2, h_acc.end());
-    go.fit.sigma_m = std::max(h_acc[h_acc.size() / 2], 0.005);
-  }
-  go.roll_source = o.roll_source;
-  go.road.window_m = o.road_window_m;
-  go.road.tolerance_m = o.road_tolerance_m;
-  go.road.max_range_m = o.road_range_m;
-  go.road.seed = static_cast<uint64_t>(o.seed);
-  RigGeometry rig;
-  rig.lever_arm_body_m = Eigen::Vector3d(o.lever_arm_x_m, o.lever_arm_y_m, o.lever_arm_z_m);
-  rig.R_body_cam = o.RBodyCam();
-
-  GeoreferenceResult result;
-  try {
-    result = Georeference(frames, map_points, rig, go);
-  } catch (const std::invalid_argument& e) {
-    throw InputError(InputLocation::File(traj_path.string()), e.what());
-  }
-
+  // The output CRS before the fit: a CRS PROJ does not know fails before any work.
   Geodetic crs_origin = centre;
   if (!o.enu_origin.empty()) {
     const auto v = *ParseNumbers(o.enu_origin);
@@ -287,6 +287,23 @@ void GeoreferenceStage::Run(StageContext& ctx, const GeoreferenceStageOptions& o
     throw OptionError(fmt::format("survey crs: {}", e.what()));
   }
   g.crs = crs.get();
+
+  std::vector<double> h_acc;
+  int with_attitude = 0;
+  const std::vector<GeoFrame> frames = MakeGeoFrames(priors, trajectory, ctx.frame_selection(), g.enu, &h_acc, &with_attitude);
+
+  const GeoreferenceOptions go = AlgorithmOptions(o, h_acc);
+  RigGeometry rig;
+  rig.lever_arm_body_m = Eigen::Vector3d(o.lever_arm_x_m, o.lever_arm_y_m, o.lever_arm_z_m);
+  rig.R_body_cam = o.RBodyCam();
+
+  GeoreferenceResult result;
+  try {
+    result = Georeference(frames, map_points, rig, go);
+  } catch (const std::invalid_argument& e) {
+    throw InputError(InputLocation::File(traj_path.string()), e.what());
+  }
+
 
   WriteCamerasCsv(ctx.out_dir() / "cameras.csv", result, g);
   WriteTrajectoryGeoJson(ctx.out_dir() / "trajectory.geojson", result, g);
