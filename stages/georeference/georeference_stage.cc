@@ -304,7 +304,6 @@ void GeoreferenceStage::Run(StageContext& ctx, const GeoreferenceStageOptions& o
     throw InputError(InputLocation::File(traj_path.string()), e.what());
   }
 
-
   WriteCamerasCsv(ctx.out_dir() / "cameras.csv", result, g);
   WriteTrajectoryGeoJson(ctx.out_dir() / "trajectory.geojson", result, g);
   nlohmann::json report = GeoreferenceReport(result, g, o.estimate_scale);
@@ -320,14 +319,14 @@ void GeoreferenceStage::Run(StageContext& ctx, const GeoreferenceStageOptions& o
                    {"camera_axes_in_body", o.camera_axes_in_body}};
   report["inputs"] = {{"trajectory", kGeoreferenceInputs.trajectory_artifact}, {"map", kGeoreferenceInputs.map_artifact},
                       {"map_points", map_points.size()}};
-  WriteGnssResidualPlot(ctx.out_dir() / "georeference_residuals.png", result.residuals, result.fit.sigma_axis_m,
-                        fmt::format("georeference: {} fixes, {} outliers, roll from {}", result.residuals.size(),
-                                    result.residuals.size() - result.fit.ransac_inliers, ToString(result.roll_method)));
 
   std::map<CameraStatus, int> by_status;
   for (const auto& c : result.cameras) ++by_status[c.status];
   int outliers = 0;
   for (const auto& r : result.residuals) outliers += !r.inlier;
+  WriteGnssResidualPlot(ctx.out_dir() / "georeference_residuals.png", result.residuals, result.fit.sigma_axis_m,
+                        fmt::format("georeference: {} fixes, {} outliers, roll from {}", result.residuals.size(),
+                                    outliers, ToString(result.roll_method)));
   report["georeferenced"] = true;
   report["frames"] = {{"visual", by_status[CameraStatus::kVisual]},
                       {"gnss-only", by_status[CameraStatus::kGnssOnly]},
