@@ -8,6 +8,7 @@ packages=(
   libopencv-dev libopencv-contrib-dev
   libeigen3-dev libceres-dev libpcl-dev
   libgeographiclib-dev libopenmesh-dev
+  libproj-dev proj-data proj-bin
   nlohmann-json3-dev libvalijson-dev libcli11-dev
   libspdlog-dev libfmt-dev libtbb-dev libxxhash-dev
   libpugixml-dev libyaml-cpp-dev

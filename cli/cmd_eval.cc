@@ -19,6 +19,7 @@
 #include "eval/damage/damage_eval.h"
 #include "eval/damage/sim_damage_eval.h"
 #include "eval/disparity/disparity_eval.h"
+#include "eval/georeference/georeference_eval.h"
 #include "formats/disparity/disparity_io.h"
 #include "eval/trajectory/trajectory_plot.h"
 #include "eval/trajectory/trajectory_report.h"
@@ -324,6 +325,18 @@ int64_t SecondsToNs(double s, const std::string& flag) {
   return std::llround(s * 1e9);
 }
 
+struct GeoreferenceArgs {
+  std::string output, truth, json;
+  bool no_colmap = false;
+};
+
+int RunEvalGeoreference(const GeoreferenceArgs& a) {
+  const GeoreferenceEvaluation ev = EvaluateGeoreference(a.output, a.truth, !a.no_colmap);
+  if (a.json != "-") fmt::print("{}", ev.BriefReport());
+  if (!a.json.empty()) WriteTextOutput(a.json, ev.ToJson().dump(2) + "\n");
+  return kExitOk;
+}
+
 struct TrajectoryArgs {
   std::string est, gt, align = "se3", format = "auto", gt_format = "auto", kitti_times, json, plot;
   bool by_index = false;
@@ -390,7 +403,7 @@ int RunEvalSimulatedDamage(const SimDamageArgs& a) {
 
 Command EvalCommand() {
   return {
-      "eval", "Evaluate results against ground truth: disparity maps, damage labels, trajectories",
+      "eval", "Evaluate results against ground truth: disparity maps, damage labels, trajectories, georeferencing",
       [](CLI::App& app, const StageRegistry&) -> std::function<int()> {
         app.option_defaults()->always_capture_default();
         app.require_subcommand(1);
@@ -436,6 +449,15 @@ Command EvalCommand() {
         traj->add_option("--json", t->json, "write the report as JSON ('-' = stdout)");
         traj->add_option("--plot", t->plot, "write a PNG: top view of both paths after alignment, ATE over time");
 
+        auto geo = std::make_shared<GeoreferenceArgs>();
+        CLI::App* georef = app.add_subcommand(
+            "georeference", "cameras.csv of a simulated survey vs truth, beside COLMAP model_aligner on the same input");
+        georef->add_option("output", geo->output, "the survey's output folder (cameras.csv, trajectory.tum, work/)")
+            ->required();
+        georef->add_option("truth", geo->truth, "the simulator's truth/ folder")->required();
+        georef->add_flag("--no-colmap", geo->no_colmap, "skip COLMAP model_aligner");
+        georef->add_option("--json", geo->json, "write the evaluation as JSON ('-' = stdout)");
+
         auto sd = std::make_shared<SimDamageArgs>();
         CLI::App* sim = app.add_subcommand(
             "damage-sim", "a simulated survey end to end: disparity + damage vs the simulator's truth potholes");
@@ -454,6 +476,7 @@ Command EvalCommand() {
         return [=] {
           if (sim->parsed()) return RunEvalSimulatedDamage(*sd);
           if (disp->parsed()) return RunEvalDisparity(*d);
+          if (georef->parsed()) return RunEvalGeoreference(*geo);
           if (dmg->parsed()) return RunEvalDamage(*g);
           return RunEvalTrajectory(*t);
         };

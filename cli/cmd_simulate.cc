@@ -40,7 +40,7 @@ Command SimulateCommand() {
                   Simulate(options, args->out_dir, [&](int done, int) { progress.Advance(done - progress.done()); });
               progress.Finish();
               WriteSurveyJson(std::filesystem::path(args->out_dir) / "survey.json",
-                              args->name.empty() ? args->preset : args->name);
+                              args->name.empty() ? args->preset : args->name, options);
               fmt::print("{}\nSurvey folder: {}\nRun it with: roadsurvey run {}\n", summary.BriefReport(),
                          args->out_dir, (std::filesystem::path(args->out_dir) / "survey.json").string());
               return kExitOk;

@@ -9,13 +9,17 @@ constexpr double kPi = 3.14159265358979323846;
 constexpr double kDeg = kPi / 180.0;
 }  // namespace
 
-FlightPath::FlightPath(const SimulationOptions& o, const RoadGeometry& road) : road_(road), o_(o) {
-  const double p = o.camera_pitch_deg * kDeg;
+Eigen::Matrix3d FlightPath::MountRotation(double camera_pitch_deg) {
+  const double p = camera_pitch_deg * kDeg;
   Eigen::Matrix3d R_body_cam;
   R_body_cam.col(0) = Eigen::Vector3d(0, 1, 0);
   R_body_cam.col(1) = Eigen::Vector3d(-std::sin(p), 0, std::cos(p));
   R_body_cam.col(2) = Eigen::Vector3d(std::cos(p), 0, std::sin(p));
-  T_body_cam_.linear() = R_body_cam;
+  return R_body_cam;
+}
+
+FlightPath::FlightPath(const SimulationOptions& o, const RoadGeometry& road) : road_(road), o_(o) {
+  T_body_cam_.linear() = MountRotation(o.camera_pitch_deg);
 
   const bool car = o.platform == "car";
   const double k = o.wobble_scale;

@@ -28,6 +28,9 @@ class FlightPath {
   Eigen::Isometry3d T_world_cam(double t_s) const { return At(t_s).T_world_body * T_body_cam_; }
   /// Camera mount: OpenCV camera axes (x right, y down, z optical axis) in the body frame.
   const Eigen::Isometry3d& T_body_cam() const { return T_body_cam_; }
+  /// The camera mount: left camera axes (OpenCV) in the body FRD frame for an optical axis
+  /// `camera_pitch_deg` below the forward axis (90 = nadir).
+  static Eigen::Matrix3d MountRotation(double camera_pitch_deg);
   /// Range of road distance the flight covers (first and last frame, both legs).
   double s_first() const { return s_first_; }
   double s_last_max() const { return s_far_; }

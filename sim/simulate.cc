@@ -53,13 +53,20 @@ std::string SimulationSummary::BriefReport() const {
                      damages, obstacles, total_s, pairs_per_s, out_dir.string());
 }
 
-void WriteSurveyJson(const fs::path& path, const std::string& name) {
+void WriteSurveyJson(const fs::path& path, const std::string& name, const SimulationOptions& o) {
+  // The mount row by row; the antenna sits at the left camera (flight_log_sim.cc).
+  const Eigen::Matrix3d R = sim::FlightPath::MountRotation(o.camera_pitch_deg);
+  std::string axes;
+  for (int i = 0; i < 9; ++i) axes += fmt::format("{}{:.12g}", i == 0 ? "" : i % 3 == 0 ? ", " : ",", R(i / 3, i % 3));
+  const nlohmann::json georeference = {
+      {"camera_axes_in_body", axes}, {"lever_arm_x_m", 0.0}, {"lever_arm_y_m", 0.0}, {"lever_arm_z_m", 0.0}};
   const nlohmann::json j = {{"name", name},
                             {"inputs",
                              {{"frames", {{"path", "."}}},
                               {"calibration", {{"path", "calibration.yaml"}}},
                               {"flight_log", {{"path", "flight_log.csv"}}}}},
-                            {"output", "out"}};
+                            {"output", "out"},
+                            {"stages", {{"georeference", georeference}}}};
   std::ofstream f(path);
   f << j.dump(2) << "\n";
   if (!f) throw std::runtime_error("cannot write " + path.string());
@@ -144,7 +151,7 @@ SimulationSummary Simulate(const SimulationOptions& o, const fs::path& out, cons
     f << scene_json.dump(2) << "\n";
     if (!f) throw std::runtime_error("cannot write scene.json");
   }
-  WriteSurveyJson(out / "survey.json", "simulated-" + o.preset);
+  WriteSurveyJson(out / "survey.json", "simulated-" + o.preset, o);
 
   summary.frames = o.num_frames;
   summary.damages = static_cast<int>(scene.damages().size());

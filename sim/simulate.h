@@ -33,8 +33,9 @@ using SimulationProgressFn = std::function<void(int done, int total)>;
 SimulationSummary Simulate(const SimulationOptions& options, const std::filesystem::path& out_dir,
                            const SimulationProgressFn& progress = {});
 
-/// Writes the survey.json that makes `out_dir` a survey for `roadsurvey run`.
-void WriteSurveyJson(const std::filesystem::path& path, const std::string& name);
+/// Writes the survey.json that makes `out_dir` a survey for `roadsurvey run`, with the rig's
+/// georeference options (camera mount, zero lever arm) as a user would write them from the rig's spec.
+void WriteSurveyJson(const std::filesystem::path& path, const std::string& name, const SimulationOptions& options);
 
 /// Simulator throughput measured by BenchmarkRender(): whole stereo pairs, i.e.
 /// left and right views rendered (1 ray per pixel, truth depth and labels for the

@@ -212,7 +212,7 @@ void SimulationOptions::Check() const {
 }
 
 const std::vector<std::string>& PresetNames() {
-  static const std::vector<std::string> names = {"demo", "drone-low", "drone-high", "car", "loop", "obstacles", "rtk"};
+  static const std::vector<std::string> names = {"demo", "drone-low", "drone-high", "car", "loop", "obstacles", "rtk", "straight"};
   return names;
 }
 
@@ -264,6 +264,13 @@ SimulationOptions PresetOptions(const std::string& name) {
     o.gnss_noise_m = 0.012;
     o.gnss_bias_m = 0.008;
     o.gnss_rtk = true;
+  } else if (name == "straight") {
+    // A straight, level-across road: roll about the track is unobservable from GNSS positions.
+    o.road_curvature_1_m = 0;
+    o.road_length_m = 70;
+    o.speed_m_s = 5;
+    o.frame_rate_hz = 10;
+    o.num_frames = 80;
   } else {
     std::string list;
     for (const auto& n : PresetNames()) list += (list.empty() ? "" : ", ") + n;

@@ -103,7 +103,7 @@ struct SimulationOptions {
 /// Names of the presets, in documentation order.
 const std::vector<std::string>& PresetNames();
 
-/// Options of a named preset: demo, drone-low, drone-high, car, loop, obstacles, rtk.
+/// Options of a named preset: demo, drone-low, drone-high, car, loop, obstacles, rtk, straight.
 /// Throws rs::OptionError listing the presets for an unknown name.
 SimulationOptions PresetOptions(const std::string& name);
 

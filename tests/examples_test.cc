@@ -124,6 +124,15 @@ TEST(Examples, KittiRaw0023Oxts) {
   ExpectPublished(out, 7);
   const std::string ingest = ReadJson(out / "ingest.json").dump();
   EXPECT_NE(ingest.find("kitti-oxts"), std::string::npos) << "the OXTS records are the flight log: " << ingest;
+  // Georeferenced on the OXTS RTK positions: the residuals are the OXTS error (RTK, a few cm) plus
+  // camera-to-log timing jitter (~5 ms at ~9 m/s = 5 cm), within 0.15 m RMS horizontally, 0.10 m vertically.
+  const auto geo = ReadJson(out / "georeference.json");
+  EXPECT_TRUE(geo["georeferenced"].get<bool>()) << geo.dump(1);
+  EXPECT_EQ(geo["roll"]["method"], "attitude");
+  EXPECT_GE(geo["residuals"]["inliers"]["frames"].get<int>(), 6);
+  EXPECT_LT(geo["residuals"]["inliers"]["rmse_m"]["horizontal"].get<double>(), 0.15) << geo["residuals"].dump(1);
+  EXPECT_LT(geo["residuals"]["inliers"]["rmse_m"]["up"].get<double>(), 0.10) << geo["residuals"].dump(1);
+  EXPECT_EQ(geo["frames"]["visual"].get<int>(), 7);
 }
 
 TEST(Examples, EurocV101Micro) {
