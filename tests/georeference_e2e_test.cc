@@ -105,5 +105,22 @@ TEST_F(GeoreferenceE2E, StraightRoadRollFromAttitudeAndRoadPlane) {
   EXPECT_LT(std::abs(road["ours"]["mean_angle_error_deg"]["roll"].get<double>()), 0.5) << road.dump(1);
 }
 
+// A crs PROJ does not know is reported by `validate` and stops `run` before any work, naming the code.
+TEST_F(GeoreferenceE2E, UnknownCrsIsAnUpFrontError) {
+  const fs::path dir = root_ / "bad_crs";
+  auto r = RunProgram("simulate " + dir.string() + " --preset demo --progress quiet --num_frames 2" + kSmall);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const fs::path survey = dir / "survey.json";
+  auto doc = ReadJson(survey);
+  doc["crs"] = "EPSG:99999";
+  std::ofstream(survey) << doc.dump(2);
+  for (const char* command : {"validate ", "run "}) {
+    r = RunProgram(command + survey.string());
+    EXPECT_EQ(r.exit_code, 2) << command << r.output;
+    EXPECT_NE(r.output.find("EPSG:99999"), std::string::npos) << r.output;
+  }
+  EXPECT_FALSE(fs::exists(dir / "out" / "manifest.json")) << "nothing ran";
+}
+
 }  // namespace
 }  // namespace rs::test

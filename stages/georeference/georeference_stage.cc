@@ -235,6 +235,18 @@ StageInfo GeoreferenceStage::Info() {
   return info;
 }
 
+// The survey's crs is checked before anything runs (`validate`, and `run` up front): a code PROJ does
+// not know, or geoid heights on a local tangent plane, would otherwise fail only after SLAM.
+void GeoreferenceStage::ValidateInputs(const SurveyFile& survey, const GeoreferenceStageOptions& o, ValidationDepth,
+                                       ProblemList& problems) const {
+  try {
+    // Any centre serves: it only picks the UTM zone or the tangent plane's origin.
+    OutputCrs(survey.crs, Geodetic{}, Heights(o));
+  } catch (const std::exception& e) {
+    problems.Error(InputLocation::File(survey.path.string()), e.what());
+  }
+}
+
 void GeoreferenceStage::Run(StageContext& ctx, const GeoreferenceStageOptions& o) const {
   const auto t_start = std::chrono::steady_clock::now();
   const fs::path traj_path =

@@ -55,6 +55,8 @@ class GeoreferenceStage : public TypedStage<GeoreferenceStage, GeoreferenceStage
  public:
   static StageInfo Info();
   void Run(StageContext& ctx, const GeoreferenceStageOptions& options) const;
+  void ValidateInputs(const SurveyFile& survey, const GeoreferenceStageOptions& options, ValidationDepth depth,
+                      ProblemList& problems) const;
 };
 
 }  // namespace rs
