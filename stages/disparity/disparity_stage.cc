@@ -28,7 +28,9 @@ const OptionTable<RoadFitOptions>& RoadFitTable() {
           .Add("max_row_diff_px", &RoadFitOptions::max_row_diff_px, "epipolar constraint |v_left - v_right|", "px")
           .Min(0)
           .Add("min_disparity_px", &RoadFitOptions::min_disparity_px, "matches need a larger disparity", "px")
-          .Add("max_disparity_px", &RoadFitOptions::max_disparity_px, "matches need at most this disparity", "px")
+          .Add("max_disparity_px", &RoadFitOptions::max_disparity_px,
+               "matches need at most this disparity (0 = the whole common field of view, below the image width)", "px")
+          .Min(0)
           .Add("ratio", &RoadFitOptions::ratio, "Lowe ratio test on Hamming distances")
           .Above(0)
           .Max(1)
@@ -159,6 +161,15 @@ const OptionTable<DisparityParams>& ParamsTable() {
                "valid GPT-SGM disparity")
           .Min(0)
           .Max(1)
+          .Add("max_road_tilt_deg", &DisparityParams::max_road_tilt_deg,
+               "GPT-SGM: reject a road model tilted further than this across the image rows (the rig's roll "
+               "against the road; platform tilt <= 45 deg plus cross slope <= 5 deg), plain SGM instead (0 = off)",
+               "deg")
+          .Min(0)
+          .Max(90)
+          .Add("fallback_range_from_matches", &DisparityParams::fallback_range_from_matches,
+               "GPT fallback: plain SGM over the sparse matches' disparity range (1st-99th percentile, widened) "
+               "instead of [min_disparity, min_disparity + num_disparities)")
           .Include("road", &DisparityParams::road, RoadFitTable());
   return t;
 }
