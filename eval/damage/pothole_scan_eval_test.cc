@@ -7,8 +7,9 @@
 namespace rs {
 namespace {
 
-// Pair 3 of Fan et al. 2021 model3 against the laser scan of its pothole's mould: the dataset's
-// authors report 2.23 mm RMS closest-point distance for their stereo reconstruction.
+// Pair 3 of Fan et al. 2021 model3 against a laser scan of the pothole's mould (the data names no
+// pairing; every pair views the same pothole, docs/results/damage.md gives every pair against every
+// scan): the dataset's authors report 2.23 mm RMS closest-point distance for their reconstruction.
 TEST(PotholeScan, Fan2021Pair3WithinThreeMillimetres) {
   const auto dir = rs::test::DataRoot() / "pothole_recon_fan2021" / "model3";
   if (!std::filesystem::exists(dir / "gt" / "model_2.ply"))
