@@ -17,6 +17,7 @@
 #include "formats/input_error.h"
 #include "formats/trajectory/trajectory_file.h"
 #include "eval/damage/damage_eval.h"
+#include "eval/damage/pothole_scan_eval.h"
 #include "eval/damage/sim_damage_eval.h"
 #include "eval/disparity/disparity_eval.h"
 #include "eval/georeference/georeference_eval.h"
@@ -399,11 +400,47 @@ int RunEvalSimulatedDamage(const SimDamageArgs& a) {
   return kExitOk;
 }
 
+struct PotholeScanArgs {
+  std::string dir;
+  std::vector<int> pairs = {1, 3, 4, 5};
+  double max_depth_m = 0.1;
+  bool smooth = false;
+  std::string json;
+};
+
+int RunEvalPotholeScan(const PotholeScanArgs& a) {
+  PotholeScanOptions o;
+  o.max_depth_m = a.max_depth_m;
+  o.sharp = !a.smooth;
+  std::vector<PotholeScanRow> rows;
+  CheckAsOption([&] { rows = EvaluatePotholeScans(a.dir, a.pairs, o); });
+  fmt::print("{}", PotholeScanTable(rows));
+  if (!a.json.empty()) {
+    nlohmann::json j = nlohmann::json::array();
+    for (const auto& r : rows)
+      j.push_back({{"pair", r.pair},
+                   {"scan", r.scan},
+                   {"camera_height_m", r.result.camera_height_m},
+                   {"delta_px", r.result.delta_px},
+                   {"num_disparities", r.result.num_disparities},
+                   {"road_sigma_mm", r.result.road_sigma_mm},
+                   {"cut_mm", r.result.cut_mm},
+                   {"region_px", r.result.region_px},
+                   {"points", r.result.points},
+                   {"max_depth_mm", r.result.max_depth_mm},
+                   {"scan_depth_mm", r.result.scan_depth_mm},
+                   {"rms_mm", r.result.rms_mm},
+                   {"median_mm", r.result.median_mm}});
+    WriteTextOutput(a.json, nlohmann::json{{"schema", "roadsurvey.eval_pothole_scan/1"}, {"rows", j}}.dump(2) + "\n");
+  }
+  return kExitOk;
+}
+
 }  // namespace
 
 Command EvalCommand() {
   return {
-      "eval", "Evaluate results against ground truth: disparity maps, damage labels, trajectories, georeferencing",
+      "eval", "Evaluate results against ground truth: disparity maps, damage labels, trajectories, georeferencing, potholes vs laser scans",
       [](CLI::App& app, const StageRegistry&) -> std::function<int()> {
         app.option_defaults()->always_capture_default();
         app.require_subcommand(1);
@@ -473,7 +510,22 @@ Command EvalCommand() {
         sim->add_option("--min-diameter", sd->min_diameter_m, "truth potholes at least this wide are scored, m")
             ->check(CLI::PositiveNumber);
 
+        auto ps = std::make_shared<PotholeScanArgs>();
+        CLI::App* scan = app.add_subcommand(
+            "pothole-scan",
+            "potholes reconstructed at full resolution vs laser scans (Fan 2021 model3): ICP, RMS closest-point distance");
+        scan->add_option("model3", ps->dir, "the model3 folder (left images/, right images/, gt/, calibration_rectified.yaml)")
+            ->required()
+            ->check(CLI::ExistingDirectory);
+        scan->add_option("--pairs", ps->pairs, "the pair of each scan in order: gt/model_1.ply, gt/model_2.ply, ...")
+            ->delimiter(',');
+        scan->add_option("--max-depth", ps->max_depth_m, "deepest damage the GPT-SGM range must hold, m")
+            ->check(CLI::PositiveNumber);
+        scan->add_flag("--smooth", ps->smooth, "reconstruct from the smooth disparity instead of disparity_sharp");
+        scan->add_option("--json", ps->json, "write the rows as JSON ('-' = stdout)");
+
         return [=] {
+          if (scan->parsed()) return RunEvalPotholeScan(*ps);
           if (sim->parsed()) return RunEvalSimulatedDamage(*sd);
           if (disp->parsed()) return RunEvalDisparity(*d);
           if (georef->parsed()) return RunEvalGeoreference(*geo);

@@ -157,6 +157,10 @@ Command StereoCommand() {
           if (!a->cloud.empty() && !geometry)
             throw OptionError("--cloud needs metric geometry: give --calibration or --focal and --baseline");
 
+          // The focal length lets the road model's tilt be checked and the refinement window follow the
+          // road (as in the disparity stage).
+          if (geometry) params.camera_focal_px = geometry->f_px;
+
           std::unique_ptr<tbb::global_control> limit;
           if (a->threads > 0) {
             limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, a->threads);
@@ -174,7 +178,15 @@ Command StereoCommand() {
                      m.a1, m.roll_rad * 180 / M_PI);
           fmt::print("road fit        {} matches, {} inliers, RMS {:.3f} px, reliable: {}\n", m.num_matches,
                      m.num_inliers, m.residual_rms_px, m.reliable ? "yes" : "no");
-          fmt::print("disparities     {} searched per pixel\n", res.num_disparities);
+          if (std::isfinite(res.road_tilt_rad))
+            fmt::print("road tilt       {:.2f} deg across the image rows (bound {:.0f} deg){}\n",
+                       res.road_tilt_rad * 180 / M_PI, params.max_road_tilt_deg,
+                       res.road_tilt_rejected ? ": REJECTED" : "");
+          if (res.method_used == DisparityMethod::kGptSgm)
+            fmt::print("disparities     {} searched per pixel (residual range)\n", res.num_disparities);
+          else
+            fmt::print("disparities     {} searched per pixel, [{}, {})\n", res.num_disparities, res.min_disparity,
+                       res.min_disparity + res.num_disparities);
           fmt::print("valid           {:.1f} % of pixels\n", 100 * res.valid_fraction);
           if (geometry && m.reliable) {
             const double d_centre = m.At(geometry->cx_px, geometry->cy_px);

@@ -1,7 +1,7 @@
 // disparity_bench: our GPT-SGM and SGM vs OpenCV StereoSGBM (SGBM, SGBM_3WAY) on the same
 // pairs in one process. Usage: disparity_bench [--data DIR] [--reps N] [--no-middlebury]
 // [--paths 4|8] [--gpt-range N] [--threads N] [--only gpt-sgm|sgm|sgbm|sgbm-3way]
-// or: disparity_bench --fan2021 MODEL3_DIR [--out DIR] [--scale S] (real road pairs -> PNG previews)
+// or: disparity_bench --fan2021 MODEL3_DIR [--out DIR] [--scale S] (real road pairs at full size, or resized by S, -> PNG previews)
 // or: disparity_bench --sim SURVEY_DIR [--sim SURVEY_DIR ...] [--sim-step N] [--sim-frames N]
 //     [--sim-bands] (simulated surveys: road D1 and pothole MAE beside StereoSGBM; with --sim-bands
 //     GPT-SGM's road error by row band, docs/stages/disparity.md)
@@ -31,6 +31,7 @@
 #include "stages/disparity/disparity_stage.h"
 #include "eval/disparity/sim_disparity_eval.h"
 #include "formats/stereo/calibration_readers.h"
+#include "formats/stereo/calibration_yaml.h"
 #include "formats/stereo/rectifier.h"
 
 #include <filesystem>
@@ -41,14 +42,20 @@ namespace {
 
 // Real road pairs (pothole_recon_fan2021/model3): GPT-SGM per pair, road model and density
 // printed, colour-mapped disparity and transformed disparity written under out_dir.
+// At full size (scale 1) the stage's defaults run as they are, with the focal length of the data's
+// calibration_rectified.yaml (as `roadsurvey stereo --calibration` does); resized copies keep the
+// earlier half-size settings.
 int RunFan2021(const std::string& dir, const std::string& out_dir, double scale, rs::DisparityParams params) {
-  params.num_disparities = 256;  // fallback range at the working scale
-  // A rig ~1 m above the road: potholes reach ~15 px below the road at half size.
-  params.gpt_delta_px = 20, params.gpt_num_disparities = 48;
+  if (scale != 1) {
+    params.num_disparities = 256;  // fallback range at the working scale
+    // A rig ~0.7 m above the road: potholes reach ~15 px below the road at half size.
+    params.gpt_delta_px = 20, params.gpt_num_disparities = 48;
+  }
+  params.camera_focal_px = scale * rs::ReadCalibrationYaml(dir + "/calibration_rectified.yaml").left.fx;
   std::printf(
-      "| pair | size | road model a0, a1, roll | matches / inliers | RMS px | reliable | disparities | valid density "
-      "(all) | valid density (road visible in right view) | ms |\n"
-      "|---|---|---|---|---|---|---|---|---|---|\n");
+      "| pair | size | road model a0, a1, roll | tilt | matches / inliers | RMS px | reliable | disparities | valid "
+      "density (all) | valid density (road visible in right view) | ms |\n"
+      "|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (int i = 1; i <= 5; ++i) {
     const std::string lp = dir + "/left images/L" + std::to_string(i) + ".png";
     const std::string rp = dir + "/right images/R" + std::to_string(i) + ".png";
@@ -57,16 +64,20 @@ int RunFan2021(const std::string& dir, const std::string& out_dir, double scale,
       std::fprintf(stderr, "cannot read %s or %s\n", lp.c_str(), rp.c_str());
       return 1;
     }
-    cv::resize(l, l, cv::Size(), scale, scale, cv::INTER_AREA);
-    cv::resize(r, r, cv::Size(), scale, scale, cv::INTER_AREA);
+    if (scale != 1) {
+      cv::resize(l, l, cv::Size(), scale, scale, cv::INTER_AREA);
+      cv::resize(r, r, cv::Size(), scale, scale, cv::INTER_AREA);
+    }
     const rs::DisparityResult res = rs::ComputeDisparity(l, r, params);
     const rs::RoadModel& m = res.road;
     int64_t visible = 0, visible_valid = 0;  // pixels whose road point lies inside the right image
     for (int v = 0; v < l.rows; ++v)
       for (int u = 0; u < l.cols; ++u)
         if (u - m.At(u, v) >= 0) ++visible, visible_valid += res.valid.at<uint8_t>(v, u) != 0;
-    std::printf("| L%d/R%d | %dx%d | %.2f, %.4f, %.2f deg | %d / %d | %.2f | %s | %d%s | %.1f %% | %.1f %% | %.0f |\n",
-                i, i, l.cols, l.rows, m.a0, m.a1, m.roll_rad * 180 / M_PI, m.num_matches, m.num_inliers,
+    std::printf("| L%d/R%d | %dx%d | %.2f, %.4f, %.2f deg | %.2f deg | %d / %d | %.2f | %s | %d%s | %.1f %% | %.2f %% | "
+                "%.0f |\n",
+                i, i, l.cols, l.rows, m.a0, m.a1, m.roll_rad * 180 / M_PI, res.road_tilt_rad * 180 / M_PI,
+                m.num_matches, m.num_inliers,
                 m.residual_rms_px, m.reliable ? "yes" : "no", res.num_disparities, res.fell_back ? " (fell back)" : "",
                 100 * res.valid_fraction, 100.0 * visible_valid / std::max<int64_t>(1, visible), res.timings.total_ms);
     if (out_dir.empty()) continue;
@@ -280,7 +291,7 @@ int main(int argc, char** argv) {
   rs::DisparityParams params;
   int threads = 0;
   std::string fan_dir, out_dir, only, euroc_dir;
-  double fan_scale = 0.5;
+  double fan_scale = 1;
   std::vector<std::string> sims;
   int sim_range = 0;       // > 0: plain-SGM range of the simulated pairs instead of their truth's
   bool sim_bands = false;  // GPT-SGM's road error by row band instead of the benchmark table

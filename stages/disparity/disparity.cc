@@ -82,6 +82,8 @@ void DisparityParams::Check() const {
   if (!(gpt_min_valid_fraction >= 0 && gpt_min_valid_fraction <= 1))
     fail("gpt_min_valid_fraction", Num(gpt_min_valid_fraction), "0 <= gpt_min_valid_fraction <= 1");
   if (!(speckle_max_diff_px >= 0)) fail("speckle_max_diff_px", Num(speckle_max_diff_px), "speckle_max_diff_px >= 0");
+  if (!(max_road_tilt_deg >= 0 && max_road_tilt_deg <= 90))
+    fail("max_road_tilt_deg", Num(max_road_tilt_deg), "0 <= max_road_tilt_deg <= 90");
   try {
     ToSgm(min_disparity, num_disparities).Check(0);
     road.Check();
@@ -810,16 +812,30 @@ struct SgmRun {
   double smooth_max_px = 0;
 };
 
-// GPT-SGM's road model from sparse matches; false (and fell_back) when it is unreliable.
+// GPT-SGM's road model from sparse matches over the whole common field of view; false (and
+// fell_back) when it is unreliable or tilted beyond max_road_tilt_deg. `fallback` receives the
+// plain-SGM range for a fall-back: sized from the matches where there are enough of them.
 bool FitGptRoad(const cv::Mat& left, const cv::Mat& right, const DisparityParams& P, const RoadModel* prior,
-                DisparityResult* out) {
+                DisparityResult* out, DisparityRange* fallback) {
   DisparityResult& res = *out;
   const int W = left.cols, H = left.rows;
   const auto t0 = std::chrono::steady_clock::now();
-  RoadFitOptions o = P.road;
-  o.max_disparity_px = std::min(o.max_disparity_px, double(P.min_disparity + P.num_disparities));
-  const auto samples = MatchSparseDisparities(left, right, o);
-  res.road = FitRoadModel(samples, W, H, o, prior);
+  const auto samples = MatchSparseDisparities(left, right, P.road);
+  res.road = FitRoadModel(samples, W, H, P.road, prior);
+  *fallback = {P.min_disparity, P.num_disparities};
+  if (P.fallback_range_from_matches) {
+    const DisparityRange r = DisparityRangeOfMatches(samples, W, P.gpt_headroom_px, P.road.min_inliers);
+    if (r.num > 0) *fallback = r;
+  }
+  res.road_tilt_rad = std::numeric_limits<double>::quiet_NaN();
+  if (P.camera_focal_px > 0 && res.road.num_inliers >= 3) {
+    // The principal point is not among the parameters: the image centre (a shift of c_x by a few
+    // per cent of the width moves the tilt by well under a degree).
+    res.road_tilt_rad = RoadLateralTiltRad(res.road, P.camera_focal_px, 0.5 * (W - 1), 0.5 * (H - 1));
+    if (P.max_road_tilt_deg > 0 && std::abs(res.road_tilt_rad) > P.max_road_tilt_deg * M_PI / 180 &&
+        res.road.reliable)
+      res.road.reliable = false, res.road_tilt_rejected = true;
+  }
   res.timings.road_model_ms = MsSince(t0);
   if (!res.road.reliable) {
     res.fell_back = true;
@@ -867,6 +883,7 @@ SgmRun RunGptSgm(const cv::Mat& left, const cv::Mat& right, const DisparityParam
 SgmRun RunPlainSgm(const cv::Mat& left, const cv::Mat& right, const DisparityParams& P, DisparityResult* out) {
   DisparityResult& res = *out;
   SgmRun run;
+  res.min_disparity = P.min_disparity;
   res.num_disparities = P.num_disparities;
   const auto t0 = std::chrono::steady_clock::now();
   run.ref_s = Presmooth(left, P.presmooth_sigma_px), run.target_s = Presmooth(right, P.presmooth_sigma_px);
@@ -986,8 +1003,12 @@ DisparityResult ComputeDisparity(const cv::Mat& left, const cv::Mat& right, cons
   const int W = left.cols, H = left.rows;
   DisparityResult res;
 
-  const bool gpt = P.method == DisparityMethod::kGptSgm && FitGptRoad(left, right, P, prior, &res);
-  SgmRun run = gpt ? RunGptSgm(left, right, P, &res) : RunPlainSgm(left, right, P, &res);
+  DisparityRange fallback{P.min_disparity, P.num_disparities};
+  const bool gpt = P.method == DisparityMethod::kGptSgm && FitGptRoad(left, right, P, prior, &res, &fallback);
+  DisparityParams plain = P;  // plain SGM: requested, or GPT-SGM's fall-back over its range
+  plain.method = DisparityMethod::kSgm;
+  plain.min_disparity = fallback.min, plain.num_disparities = fallback.num;
+  SgmRun run = gpt ? RunGptSgm(left, right, P, &res) : RunPlainSgm(left, right, plain, &res);
   res.timings.census_ms = run.sgm.census_ms;
   res.timings.aggregation_ms = run.sgm.aggregation_ms;
   res.timings.wta_ms = run.sgm.wta_ms;
@@ -1007,10 +1028,9 @@ DisparityResult ComputeDisparity(const cv::Mat& left, const cv::Mat& right, cons
     visible += rows.visible[v], visible_valid += rows.visible_valid[v], num_valid += rows.valid[v];
   if (gpt && P.gpt_min_valid_fraction > 0) {
     if (visible == 0 || visible_valid < P.gpt_min_valid_fraction * visible) {
-      DisparityParams plain = P;
-      plain.method = DisparityMethod::kSgm;
       DisparityResult r = ComputeDisparity(left, right, plain, prior);
       r.fell_back = true;
+      r.road_tilt_rad = res.road_tilt_rad;
       r.timings.total_ms = MsSince(t_start);
       return r;
     }

@@ -97,6 +97,16 @@ struct DisparityParams {
   /// of the textured pixels whose road point is visible in the right view get a valid GPT-SGM
   /// disparity, plain SGM is run instead (fell_back = true). 0 disables.
   double gpt_min_valid_fraction = 0.9;
+  /// GPT-SGM with camera_focal_px: a road model tilted further than this across the image rows
+  /// (RoadLateralTiltRad, the rig's roll against the road) is not a road seen by a survey platform and
+  /// is rejected (plain SGM fallback), deg; 0 = off. 50 = a platform tilted at most 45 deg (a multirotor's
+  /// largest commanded tilt, PX4 MPC_TILTMAX_AIR; a car's body roll is a few degrees) on a road with a
+  /// cross slope of at most 5 deg (8 % superelevation is 4.6 deg), image rows mounted level on the platform.
+  double max_road_tilt_deg = 50;
+  /// GPT fallback: plain SGM over the sparse matches' disparity range (DisparityRangeOfMatches, widened
+  /// by gpt_headroom_px) instead of [min_disparity, min_disparity + num_disparities), when at least
+  /// road.min_inliers matches were found; fewer: the configured range.
+  bool fallback_range_from_matches = true;
   RoadFitOptions road;  ///< sparse matching and robust road-model fit
 
   /// Throws std::invalid_argument naming the rule broken, e.g. "disparity.p2 = 5 violates p2 > p1 (p1 = 8)".
@@ -132,7 +142,11 @@ struct DisparityResult {
   RoadModel road;                                       ///< road model used (GPT) or fitted to the dense result (SGM)
   DisparityMethod method_used = DisparityMethod::kSgm;  ///< kSgm also when GPT fell back
   bool fell_back = false;     ///< GPT requested but road model unreliable -> plain SGM over the wide range
+  int min_disparity = 0;      ///< smallest disparity searched (plain SGM), px; 0 for GPT-SGM's residual range
   int num_disparities = 0;    ///< disparities searched per pixel
+  /// Lateral tilt of the sparse road model (RoadLateralTiltRad), rad; NaN without camera_focal_px.
+  double road_tilt_rad = 0;
+  bool road_tilt_rejected = false;  ///< the road model exceeded max_road_tilt_deg (then fell_back)
   double valid_fraction = 0;  ///< share of valid pixels
   DisparityTimings timings;
 };

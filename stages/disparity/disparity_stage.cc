@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
 
@@ -28,7 +29,9 @@ const OptionTable<RoadFitOptions>& RoadFitTable() {
           .Add("max_row_diff_px", &RoadFitOptions::max_row_diff_px, "epipolar constraint |v_left - v_right|", "px")
           .Min(0)
           .Add("min_disparity_px", &RoadFitOptions::min_disparity_px, "matches need a larger disparity", "px")
-          .Add("max_disparity_px", &RoadFitOptions::max_disparity_px, "matches need at most this disparity", "px")
+          .Add("max_disparity_px", &RoadFitOptions::max_disparity_px,
+               "matches need at most this disparity (0 = the whole common field of view, below the image width)", "px")
+          .Min(0)
           .Add("ratio", &RoadFitOptions::ratio, "Lowe ratio test on Hamming distances")
           .Above(0)
           .Max(1)
@@ -159,6 +162,15 @@ const OptionTable<DisparityParams>& ParamsTable() {
                "valid GPT-SGM disparity")
           .Min(0)
           .Max(1)
+          .Add("max_road_tilt_deg", &DisparityParams::max_road_tilt_deg,
+               "GPT-SGM: reject a road model tilted further than this across the image rows (the rig's roll "
+               "against the road; platform tilt <= 45 deg plus cross slope <= 5 deg), plain SGM instead (0 = off)",
+               "deg")
+          .Min(0)
+          .Max(90)
+          .Add("fallback_range_from_matches", &DisparityParams::fallback_range_from_matches,
+               "GPT fallback: plain SGM over the sparse matches' disparity range (1st-99th percentile, widened) "
+               "instead of [min_disparity, min_disparity + num_disparities)")
           .Include("road", &DisparityParams::road, RoadFitTable());
   return t;
 }
@@ -203,7 +215,11 @@ nlohmann::json RoadModelJson(const RoadModel& m, const DisparityResult& r, doubl
           {"from_prior", m.from_prior},
           {"method_used", r.method_used == DisparityMethod::kGptSgm ? "gpt-sgm" : "sgm"},
           {"fell_back", r.fell_back},
+          {"min_disparity", r.min_disparity},
           {"num_disparities", r.num_disparities},
+          // Lateral tilt (RoadLateralTiltRad) of the sparse model; null without a focal length.
+          {"lateral_tilt_rad", std::isfinite(r.road_tilt_rad) ? nlohmann::json(r.road_tilt_rad) : nlohmann::json()},
+          {"tilt_rejected", r.road_tilt_rejected},
           {"valid_fraction", r.valid_fraction}};  // timings go to the run summary: outputs stay reproducible
 }
 
@@ -239,7 +255,9 @@ const OptionTable<DisparityStageOptions>& DisparityStageOptions::Table() {
 StageInfo DisparityStage::Info() {
   StageInfo info;
   info.name = "disparity";
-  info.version = 2;  // 2: a frame whose predecessor is unreadable is computed without the temporal prior
+  // 2: a frame whose predecessor is unreadable is computed without the temporal prior; 3: road keypoints
+  // matched over the whole common field of view, tilt check, fallback range from the matches.
+  info.version = 3;
   info.doc =
       "Dense road disparity per frame: GPT-SGM (road model, perspective transformation, semi-global "
       "matching over a small residual range), plain SGM where the road model is unreliable.";
@@ -291,9 +309,14 @@ void DisparityStage::Run(StageContext& ctx, const DisparityStageOptions& o) cons
                       {"valid_fraction_sum", r.valid_fraction},
                       {"road_inliers_sum", r.road.num_inliers},
                       {"compute_ms_sum", r.timings.total_ms}};
-        if (r.fell_back)
-          out.warnings.push_back(fmt::format("road model unreliable ({} inliers): plain SGM over {} disparities",
-                                             r.road.num_inliers, r.num_disparities));
+        if (r.fell_back && r.road_tilt_rejected)
+          out.warnings.push_back(fmt::format(
+              "road model tilted {:.1f} deg across the image rows (bound {:g}): plain SGM over [{}, {})",
+              r.road_tilt_rad * 180 / M_PI, o.params.max_road_tilt_deg, r.min_disparity,
+              r.min_disparity + r.num_disparities));
+        else if (r.fell_back)
+          out.warnings.push_back(fmt::format("road model unreliable ({} inliers): plain SGM over [{}, {})",
+                                             r.road.num_inliers, r.min_disparity, r.min_disparity + r.num_disparities));
         return out;
       },
       o.skip_bad_frames);

@@ -171,6 +171,63 @@ TEST(Disparity, RealRoadAgreesWithPlainSgm) {
   EXPECT_NEAR(t[t.size() / 2], 20.0, 0.5);
 }
 
+// Full resolution (2081x1040, road at 160-330 px) with the defaults: the sparse matching spans the
+// whole common field of view, so the road model is found without a hand-set range.
+TEST(Disparity, RealRoadFullResolutionDefaults) {
+  const std::string dir = (rs::test::DataRoot() / "pothole_recon_fan2021" / "model3").string();
+  const cv::Mat l = cv::imread(dir + "/left images/L3.png", cv::IMREAD_GRAYSCALE);
+  const cv::Mat r = cv::imread(dir + "/right images/R3.png", cv::IMREAD_GRAYSCALE);
+  if (l.empty() || r.empty()) GTEST_SKIP() << "no pothole_recon_fan2021 data under " << dir << " (set ROADSURVEY_DATA)";
+  DisparityParams params;
+  params.camera_focal_px = 1389.16;  // calibration_rectified.yaml
+  const DisparityResult a = ComputeDisparity(l, r, params);
+  ASSERT_EQ(a.method_used, DisparityMethod::kGptSgm);
+  EXPECT_FALSE(a.fell_back);
+  EXPECT_GT(a.road.num_inliers, 500);
+  // Rig ~0.66 m above the road (f B / d at the principal point; the paper's rig); nearly level.
+  EXPECT_NEAR(1389.16 * 0.119493 / a.road.At(1069.6, 573.8), 0.66, 0.03);
+  EXPECT_LT(std::abs(a.road_tilt_rad) * 180 / M_PI, 5.0);
+  int64_t visible = 0, visible_valid = 0;  // road point inside the right image
+  for (int v = 0; v < l.rows; ++v)
+    for (int u = 0; u < l.cols; ++u)
+      if (u - a.road.At(u, v) >= 0) ++visible, visible_valid += a.valid.at<uint8_t>(v, u) != 0;
+  EXPECT_GT(double(visible_valid) / visible, 0.95);
+}
+
+// A road model the tilt check rejects: plain SGM runs over the range the sparse matches span,
+// far beyond the configured [0, 48), and finds the road there.
+TEST(Disparity, FallbackRangeFromMatches) {
+  SyntheticRoadOptions o;
+  o.width = 640, o.height = 270, o.c0 = 150, o.cu = -0.01, o.cv = 0.05, o.pothole_u = 400, o.pothole_v = 190,
+  o.pothole_radius_px = 40, o.pothole_depth_px = 4;
+  const auto p = MakeSyntheticRoadPair(o);
+  DisparityParams params;
+  params.num_disparities = 48;
+  params.road.min_inliers = 30;
+  params.camera_focal_px = 800;
+  params.max_road_tilt_deg = 0.01;  // any real tilt exceeds it
+  const DisparityResult r = ComputeDisparity(p.left, p.right, params);
+  EXPECT_TRUE(r.road_tilt_rejected);
+  EXPECT_TRUE(r.fell_back);
+  ASSERT_EQ(r.method_used, DisparityMethod::kSgm);
+  // Truth spans 143.6..163.5 px; the range holds it with the widening, and is far smaller than [0, W).
+  EXPECT_LE(r.min_disparity, 143);
+  EXPECT_GE(r.min_disparity + r.num_disparities, 164);
+  EXPECT_LE(r.num_disparities, 64);
+  const DisparityMetrics road = EvaluateDisparity(r.disparity, r.valid, p.gt, p.road);
+  EXPECT_LE(road.d1_est, 0.01);
+  EXPECT_GE(road.density, 0.9);
+  params.fallback_range_from_matches = false;  // the configured range cannot hold the road
+  const DisparityResult c = ComputeDisparity(p.left, p.right, params);
+  EXPECT_EQ(c.min_disparity, 0);
+  EXPECT_EQ(c.num_disparities, 48);
+  EXPECT_LT(EvaluateDisparity(c.disparity, c.valid, p.gt, p.road).density, 0.5);
+  params.max_road_tilt_deg = 50;  // the default bound: GPT-SGM as usual
+  const DisparityResult g = ComputeDisparity(p.left, p.right, params);
+  EXPECT_FALSE(g.fell_back);
+  EXPECT_EQ(g.method_used, DisparityMethod::kGptSgm);
+}
+
 // Oracle: OpenCV's filterSpeckles on the 1/16-px fixed-point copy. Patches of random size and
 // level (steps of 0..2 px between neighbours), holes, and runs broken at every kind of step.
 TEST(Disparity, FilterSpecklesMatchesOpenCv) {

@@ -56,8 +56,9 @@ void RoadFitOptions::Check() const {
   if (fast_threshold < 1) fail("fast_threshold = " + std::to_string(fast_threshold) + " violates fast_threshold >= 1");
   if (!(detect_scale > 0 && detect_scale <= 1)) fail("detect_scale violates 0 < detect_scale <= 1");
   if (!(max_row_diff_px >= 0)) fail("max_row_diff_px violates max_row_diff_px >= 0");
-  if (!(max_disparity_px > min_disparity_px) || !(min_disparity_px >= 0))
-    fail("disparity bounds violate 0 <= min_disparity_px < max_disparity_px");
+  if (!(max_disparity_px == 0 || max_disparity_px > min_disparity_px) || !(min_disparity_px >= 0))
+    fail("disparity bounds violate 0 <= min_disparity_px < max_disparity_px (or max_disparity_px = 0: up to the "
+         "image width)");
   if (!(ratio > 0 && ratio <= 1)) fail("ratio = " + std::to_string(ratio) + " violates 0 < ratio <= 1");
   if (ransac_iterations < 1) fail("ransac_iterations violates ransac_iterations >= 1");
   if (!(inlier_threshold_px > 0)) fail("inlier_threshold_px violates inlier_threshold_px > 0");
@@ -120,7 +121,9 @@ std::vector<DisparitySample> MatchSparseDisparities(const cv::Mat& L, const cv::
 
   std::multimap<int, int> right_by_row;
   for (int j = 0; j < static_cast<int>(kr.size()); ++j) right_by_row.emplace(cvRound(kr[j].pt.y), j);
-  const double row_diff = o.max_row_diff_px * sc, d_lo = o.min_disparity_px * sc, d_hi = o.max_disparity_px * sc;
+  // The whole common field of view by default: a match at d >= W would lie outside the right image.
+  const double max_d = o.max_disparity_px > 0 ? o.max_disparity_px : L.cols - 1.0;
+  const double row_diff = o.max_row_diff_px * sc, d_lo = o.min_disparity_px * sc, d_hi = max_d * sc;
   const int row_tol = static_cast<int>(std::ceil(row_diff));
   auto candidates = [&](int i, auto&& fn) {
     const cv::Point2f p = kl[i].pt;
@@ -168,7 +171,7 @@ std::vector<DisparitySample> MatchSparseDisparities(const cv::Mat& L, const cv::
     const double den = sm + sp - 2.0 * bs;
     const double sub = den > 0 ? 0.5 * (sm - sp) / den : 0.0;
     const double d = bd + std::clamp(sub, -0.5, 0.5);
-    if (d <= o.min_disparity_px || d > o.max_disparity_px) continue;
+    if (d <= o.min_disparity_px || d > max_d) continue;
     if (bd == d0 - search || bd == d0 + search) continue;  // minimum on the search border: unreliable
     out.push_back({double(ul), double(v), d});
   }
@@ -296,6 +299,30 @@ RoadModel FitRoadModel(const std::vector<DisparitySample>& s, int W, int H, cons
   m.reliable = m.num_inliers >= o.min_inliers && m.residual_rms_px <= o.max_residual_rms_px &&
                m.num_inliers >= o.min_inlier_fraction * m.num_matches;
   return m;
+}
+
+DisparityRange DisparityRangeOfMatches(const std::vector<DisparitySample>& s, int width, double margin_px,
+                                       int min_matches) {
+  DisparityRange r;
+  if (s.empty() || static_cast<int>(s.size()) < std::max(1, min_matches) || width < 2) return r;
+  std::vector<double> d;
+  d.reserve(s.size());
+  for (const auto& p : s) d.push_back(p.d);
+  std::sort(d.begin(), d.end());
+  auto quantile = [&](double q) { return d[static_cast<size_t>(std::lround(q * (d.size() - 1)))]; };
+  const double lo = quantile(0.01), hi = quantile(0.99), widen = 0.1 * (hi - lo) + margin_px;
+  r.min = std::clamp(static_cast<int>(std::floor(lo - widen)), 0, width - 1);
+  const int end = std::clamp(static_cast<int>(std::ceil(hi + widen)) + 1, r.min + 1, width);
+  r.num = std::min(end - r.min, 1024);
+  return r;
+}
+
+double RoadLateralTiltRad(const RoadModel& road, double focal_px, double cx_px, double cy_px) {
+  const double cu = -road.a1 * std::sin(road.roll_rad), cv = road.a1 * std::cos(road.roll_rad);
+  const double dc = road.a0 + cu * cx_px + cv * cy_px;
+  // Signed like phi (= atan2(-c_u, c_v)): a forward view's tilt is its roll.
+  const double nx = -focal_px * cu, norm = std::sqrt(nx * nx + focal_px * focal_px * cv * cv + dc * dc);
+  return norm > 0 ? std::asin(std::clamp(nx / norm, -1.0, 1.0)) : 0.0;
 }
 
 RoadModel FitRoadModelClosedForm(const std::vector<DisparitySample>& s) {

@@ -45,7 +45,9 @@ struct RoadFitOptions {
   double detect_scale = 0.5;      ///< detect and match on images resized by this (0, 1]; refined at full size
   double max_row_diff_px = 1.0;   ///< epipolar constraint |v_left - v_right| <= this
   double min_disparity_px = 0.5;  ///< matches need d > this (positive disparity)
-  double max_disparity_px = 256;  ///< and d <= this
+  /// and d <= this; 0 = the whole common field of view, d < image width (a rectified pair's views
+  /// overlap from depth f·B/W on, so no nearer point can be matched)
+  double max_disparity_px = 0;
   double ratio = 0.8;             ///< Lowe ratio test on Hamming distances among epipolar candidates
   int max_hamming = 64;           ///< descriptor distance ceiling (of 256 bits)
   /// Most planar hypotheses drawn; RANSAC stops earlier (after at least 50) once the best inlier
@@ -69,6 +71,23 @@ struct RoadFitOptions {
 /// minimum near the scaled disparity and refined to sub-pixel by a parabola through it.
 std::vector<DisparitySample> MatchSparseDisparities(const cv::Mat& left_gray8, const cv::Mat& right_gray8,
                                                     const RoadFitOptions& options);
+
+/// Disparity range [min, min + num) that holds the matches: their 1st to 99th percentile widened by
+/// 10 % of that span plus margin_px on each side, clamped to [0, width). Matches cover the textured part
+/// of a scene, not always its nearest or farthest points, hence the widening. Returns num = 0 when
+/// fewer than min_matches samples are given (too few for percentiles to mean anything).
+struct DisparityRange {
+  int min = 0, num = 0;
+};
+DisparityRange DisparityRangeOfMatches(const std::vector<DisparitySample>& samples, int width, double margin_px,
+                                       int min_matches);
+
+/// Lateral tilt of the road plane against the camera's image rows, rad: asin of the road normal's
+/// component along the camera x axis. With d = (B/h) n . (u - cx, v - cy, f) for a plane at distance h
+/// with unit normal n, n is parallel to (f c_u, f c_v, d(cx, cy)). For a forward view it equals the roll
+/// phi; unlike phi it stays defined for a nadir view (where phi is the direction of a tiny gradient).
+/// Planar part of the model; (cx, cy): principal point, px.
+double RoadLateralTiltRad(const RoadModel& road, double focal_px, double cx_px, double cy_px);
 
 /// Robust fit (RANSAC on planes, then least squares on inliers, then optional quadratic
 /// refinement). A prior model (e.g. the previous frame's) is scored as the first hypothesis.

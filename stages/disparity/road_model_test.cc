@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include <gtest/gtest.h>
+#include <Eigen/Geometry>
 
 #include "sim/synthetic_road_pair.h"
 
@@ -126,6 +127,45 @@ TEST(RoadModel, BadOptions) {
   o = RoadFitOptions{};
   o.min_inliers = 2;
   EXPECT_THROW(FitRoadModel({}, 10, 10, o), std::invalid_argument);
+}
+
+// A camera pitched down by alpha on a platform rolled by rho about its horizontal forward axis sees
+// the road plane with normal n = (sin rho, ...) in camera axes: the lateral tilt is rho at every
+// pitch, while the roll phi of the image gradient grows to 90 deg towards a nadir view.
+TEST(RoadModel, LateralTiltIsThePlatformRoll) {
+  const double f = 1000, cx = 640, cy = 360, B = 0.2, h = 10;
+  for (const double alpha_deg : {5.0, 30.0, 60.0, 89.0})
+    for (const double rho_deg : {-20.0, 0.0, 3.0, 40.0}) {
+      const double a = alpha_deg * M_PI / 180, rho = rho_deg * M_PI / 180;
+      // Camera axes in the world (x east, y forward, z up) before the roll, then rolled about y.
+      const Eigen::Matrix3d roll = Eigen::AngleAxisd(rho, Eigen::Vector3d::UnitY()).toRotationMatrix();
+      const Eigen::Vector3d xc = roll * Eigen::Vector3d(1, 0, 0),
+                            yc = roll * Eigen::Vector3d(0, -std::sin(a), -std::cos(a)),
+                            zc = roll * Eigen::Vector3d(0, std::cos(a), -std::sin(a));
+      const Eigen::Vector3d down(0, 0, -1);
+      const double nx = xc.dot(down), ny = yc.dot(down), nz = zc.dot(down);  // road normal, camera axes
+      // d = (B/h) n . (u - cx, v - cy, f)
+      RoadModel m;
+      m.SetPlane(B / h * (nz * f - nx * cx - ny * cy), B / h * nx, B / h * ny);
+      EXPECT_NEAR(std::abs(RoadLateralTiltRad(m, f, cx, cy)) * 180 / M_PI, std::abs(rho_deg), 1e-6)
+          << "alpha " << alpha_deg << " rho " << rho_deg;
+      if (rho_deg != 0)  // signed like the roll phi
+        EXPECT_EQ(RoadLateralTiltRad(m, f, cx, cy) > 0, m.roll_rad > 0) << "alpha " << alpha_deg << " rho " << rho_deg << " phi " << m.roll_rad * 180 / M_PI;
+      if (alpha_deg == 5.0) EXPECT_NEAR(std::abs(m.roll_rad) * 180 / M_PI, std::abs(rho_deg), 0.2);
+    }
+}
+
+TEST(RoadModel, DisparityRangeOfMatches) {
+  std::vector<DisparitySample> s;
+  for (int i = 0; i <= 100; ++i) s.push_back({double(i), 0.0, 200.0 + i});  // 200..300 px
+  s.push_back({0, 0, 1500});  // an outlier beyond the 99th percentile
+  const DisparityRange r = DisparityRangeOfMatches(s, 2000, 8, 40);
+  // 1st..99th percentile 201..300, widened by 0.1 * 99 + 8 = 17.9 px: [183, 319).
+  EXPECT_EQ(r.min, 183);
+  EXPECT_EQ(r.min + r.num, 319);
+  EXPECT_EQ(DisparityRangeOfMatches(s, 2000, 8, 200).num, 0);  // too few matches
+  const DisparityRange clamped = DisparityRangeOfMatches(s, 250, 8, 40);  // the image is narrower
+  EXPECT_EQ(clamped.min + clamped.num, 250);
 }
 
 }  // namespace
