@@ -10,6 +10,7 @@
 
 #include "formats/checked_file.h"
 #include "formats/frame_priors.h"
+#include "formats/slam_map/slam_map_file.h"
 #include "formats/stereo/calibration_yaml.h"
 #include "formats/stereo/image_io.h"
 #include "formats/trajectory/tum_trajectory.h"
@@ -157,29 +158,29 @@ bool LoadFrameOrSkip(StageContext& ctx, const FrameRecord& f, cv::Mat* left, cv:
   }
 }
 
-void WriteMap(const fs::path& dir, const SlamMap& map) {
-  fs::create_directories(dir);
-  std::ostringstream kf, pts;
-  kf << "# keyframe_id frame_index t_ns segment  T_cam_world: tx ty tz qx qy qz qw\n";
+// The map as later stages read it (formats/slam_map): good keyframes and points, every observation
+// with its pyramid level and stereo match, so a re-adjustment can weight it as the SLAM did.
+SlamMapFile ToMapFile(const SlamMap& map, const RectifiedStereo& camera, const SlamOptions& options) {
+  SlamMapFile out;
+  out.camera = {camera.width, camera.height, camera.f_px, camera.f_px, camera.cx_px, camera.cy_px, camera.baseline_m};
+  out.scale_factor = options.scale_factor;
+  out.pyramid_levels = options.pyramid_levels;
   for (const auto& k : map.keyframes) {
     if (k.bad) continue;
-    const Eigen::Quaterniond q(k.T_cam_world.linear());
-    const Eigen::Vector3d t = k.T_cam_world.translation();
-    kf << fmt::format("{} {} {} {} {:.9f} {:.9f} {:.9f} {:.12f} {:.12f} {:.12f} {:.12f}\n", k.id, k.frame_index, k.t_ns,
-                      k.segment, t.x(), t.y(), t.z(), q.x(), q.y(), q.z(), q.w());
+    out.keyframes.push_back({k.id, k.t_ns, k.segment, k.T_cam_world});
   }
-  pts << "# point_id x y z  then per observation: keyframe_id u_px v_px (left image, rectified)\n";
   for (const auto& p : map.points) {
     if (p.bad) continue;
-    pts << fmt::format("{} {:.6f} {:.6f} {:.6f}", p.id, p.p_world.x(), p.p_world.y(), p.p_world.z());
+    SlamMapPoint pt{p.id, p.p_world, {}};
     for (const auto& [kf_id, feature] : p.observations) {
-      const auto& kp = map.keyframes[kf_id].features.keypoints[feature];
-      pts << fmt::format(" {} {:.3f} {:.3f}", kf_id, kp.pt.x, kp.pt.y);
+      const Keyframe& k = map.keyframes[kf_id];
+      if (k.bad) continue;
+      const auto& kp = k.features.keypoints[feature];
+      pt.observations.push_back({kf_id, kp.pt.x, kp.pt.y, kp.octave, k.features.u_right[feature]});
     }
-    pts << '\n';
+    out.points.push_back(std::move(pt));
   }
-  WriteFileChecked(dir / "keyframes.txt", kf.view());
-  WriteFileChecked(dir / "points.txt", pts.view());
+  return out;
 }
 
 }  // namespace
@@ -200,7 +201,7 @@ const OptionTable<SlamStageOptions>& SlamStageOptions::Table() {
 StageInfo SlamStage::Info() {
   StageInfo info;
   info.name = "slam";
-  info.version = 3;  // 3: regime chosen from the first frames; frames re-solved after global BA; bad frames skipped
+  info.version = 4;  // 4: map observations carry pyramid level and stereo match
   info.doc =
       "Stereo visual SLAM (ORB features, stereo depth, motion-only and local bundle adjustment, loop "
       "closing, global BA) over the frames in time order, GNSS positions as priors.";
@@ -264,7 +265,7 @@ void SlamStage::Run(StageContext& ctx, const SlamStageOptions& o) const {
   WriteFileChecked(ctx.out_dir() / "frame_status.csv", status.view());
   WriteTumTrajectory(ctx.out_dir() / "trajectory.tum", result.frames);
   WriteTumTrajectory(ctx.out_dir() / "keyframes.tum", result.keyframes);
-  WriteMap(ctx.out_dir() / "map", result.map);
+  WriteSlamMap(ctx.out_dir() / "map", ToMapFile(result.map, slam.camera(), slam.options()));
   const auto& s = result.stats;
   ctx.summary().frames_total = static_cast<int64_t>(frames.size());
   ctx.summary().frames_computed = static_cast<int64_t>(frames.size()) - skipped;
