@@ -3,6 +3,7 @@
 #include "stages/damage/damage_stage.h"
 #include "stages/disparity/disparity_stage.h"
 #include "stages/ingest/ingest_stage.h"
+#include "stages/refine/refine_stage.h"
 #include "stages/slam/slam_stage.h"
 #include "survey/stage.h"
 
@@ -13,6 +14,7 @@ void RegisterBuiltinStages(StageRegistry& registry) {
   registry.Add(std::make_unique<DisparityStage>());
   registry.Add(std::make_unique<DamageStage>());
   registry.Add(std::make_unique<SlamStage>());
+  registry.Add(std::make_unique<RefineStage>());
 }
 
 }  // namespace rs

@@ -1,0 +1,76 @@
+#include "stages/refine/colmap_export.h"
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+namespace rs {
+namespace {
+
+// A stereo map with exact observations, then one gross outlier and one coarse-level observation.
+SlamMapFile SyntheticMap() {
+  SlamMapFile m;
+  m.camera = {640, 480, 500, 500, 320, 240, 0.5};
+  for (int k = 0; k < 4; ++k) {
+    SlamMapKeyframe kf;
+    kf.id = 10 + k;
+    kf.t_ns = 1000 + k;
+    kf.T_cam_world.translation() = Eigen::Vector3d(-0.3 * k, 0, 0);  // moving along +x
+    m.keyframes.push_back(kf);
+  }
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> x(-1, 1), z(5, 10);  // inside both images
+  for (int p = 0; p < 30; ++p) {
+    SlamMapPoint pt;
+    pt.id = p;
+    pt.p_world = Eigen::Vector3d(x(rng), x(rng), z(rng));
+    for (const auto& kf : m.keyframes) {
+      const Eigen::Vector3d c = kf.T_cam_world * pt.p_world;
+      SlamMapObservation o;
+      o.keyframe = kf.id;
+      o.u_px = 500 * c.x() / c.z() + 320;
+      o.v_px = 500 * c.y() / c.z() + 240;
+      o.u_right_px = p % 2 ? o.u_px - 500 * 0.5 / c.z() : -1;
+      pt.observations.push_back(o);
+    }
+    m.points.push_back(pt);
+  }
+  m.points[0].observations[1].u_px += 20;  // outlier
+  m.points[1].observations[2].level = 5;   // coarse
+  return m;
+}
+
+TEST(ColmapExport, ExactMapReprojectsToZeroAndDropsWhatTheRulesSay) {
+  const SlamMapFile map = SyntheticMap();
+  const ColmapExport ex = ExportToColmap(map, {1, 2, 3, 4}, ObservationSelection{});
+  EXPECT_EQ(ex.counts.observations, 120);
+  EXPECT_EQ(ex.counts.dropped_outlier, 1);
+  EXPECT_EQ(ex.counts.dropped_level, 1);
+  EXPECT_EQ(ex.counts.kept_left, 118);
+  EXPECT_EQ(ex.counts.kept_right, 15 * 4 - 1);  // odd points are stereo; point 1 lost one observation
+  EXPECT_EQ(ex.counts.points_kept, 30);
+  ASSERT_EQ(ex.model.images.size(), 8u);
+  EXPECT_EQ(ex.model.images[0].name, "left/000001.png");
+  EXPECT_EQ(ex.model.images[7].name, "right/000004.png");
+  const ReprojectionStats s = ModelReprojection(ex.model);
+  EXPECT_EQ(s.observations, 118 + 59);
+  EXPECT_LT(s.rmse_px, 1e-9);  // the right camera = rig pose with the baseline
+}
+
+TEST(ColmapExport, PointsSeenByOneKeyframeAreLeftOut) {
+  SlamMapFile map = SyntheticMap();
+  map.points[5].observations.resize(1);
+  const ColmapExport ex = ExportToColmap(map, {1, 2, 3, 4}, ObservationSelection{});
+  EXPECT_EQ(ex.counts.points_kept, 29);
+  EXPECT_EQ(ex.counts.dropped_weak_point, 1);
+  // Round trip of poses and points through the model.
+  const auto poses = KeyframePosesFromModel(ex.model, ex);
+  ASSERT_EQ(poses.size(), 4u);
+  EXPECT_TRUE(poses.at(2).isApprox(map.keyframes[2].T_cam_world, 1e-12));
+  const auto points = PointsFromModel(ex.model, ex);
+  EXPECT_EQ(points.count(5), 0u);
+  EXPECT_EQ(points.at(6), map.points[6].p_world);
+}
+
+}  // namespace
+}  // namespace rs

@@ -1,0 +1,136 @@
+#include "stages/refine/refine_steps.h"
+
+#include <fmt/format.h>
+
+#include <map>
+#include <stdexcept>
+
+#include "formats/checked_file.h"
+#include "formats/input_error.h"
+#include "stages/refine/child_process.h"
+#include "survey/stage.h"
+
+namespace rs {
+namespace fs = std::filesystem;
+
+std::vector<int64_t> FrameIdsOfKeyframes(const SlamMapFile& map, const std::vector<FrameRecord>& frames,
+                                         const fs::path& map_dir) {
+  std::map<int64_t, int64_t> id_at;
+  for (const auto& f : frames) id_at.emplace(f.t_ns, f.id.value);
+  std::vector<int64_t> ids;
+  for (const auto& k : map.keyframes) {
+    const auto it = id_at.find(k.t_ns);
+    if (it == id_at.end())
+      throw InputError(InputLocation::File((map_dir / "keyframes.txt").string()),
+                       fmt::format("keyframe {} at t_ns {} is no frame of frames.csv", k.id, k.t_ns));
+    ids.push_back(it->second);
+  }
+  return ids;
+}
+
+std::vector<std::string> RigBundleAdjusterArgs(const fs::path& input, const fs::path& rig_config, const fs::path& output,
+                                               int max_iterations) {
+  return {"rig_bundle_adjuster",
+          "--input_path", input.string(),
+          "--output_path", output.string(),
+          "--rig_config_path", rig_config.string(),
+          "--estimate_rig_relative_poses", "0",
+          "--RigBundleAdjustment.refine_relative_poses", "0",
+          "--BundleAdjustment.refine_focal_length", "0",
+          "--BundleAdjustment.refine_principal_point", "0",
+          "--BundleAdjustment.refine_extra_params", "0",
+          "--BundleAdjustment.max_num_iterations", std::to_string(max_iterations),
+          "--log_to_stderr", "1"};
+}
+
+void RunRigBundleAdjuster(StageContext& ctx, const fs::path& program, const fs::path& input, const fs::path& rig_config,
+                          const fs::path& output, int max_iterations) {
+  fs::create_directories(output);
+  const auto args = RigBundleAdjusterArgs(input, rig_config, output, max_iterations);
+  const std::string command = CommandLine(program, args);
+  ctx.progress().Start("colmap rig BA", max_iterations, "iterations");
+  // Ceres prints one line per iteration that starts with its number.
+  const auto on_line = [&](std::string_view line) {
+    const size_t i = line.find_first_not_of(' ');
+    if (i != std::string_view::npos && i + 1 < line.size() && std::isdigit(static_cast<unsigned char>(line[i])) &&
+        line.find("e+") != std::string_view::npos)
+      ctx.progress().Advance();
+  };
+  ChildResult r;
+  try {
+    r = RunChild(program, args, on_line);
+  } catch (const std::system_error& e) {
+    ctx.progress().Finish();
+    throw std::runtime_error(fmt::format("{} (command: {})", e.what(), command));
+  }
+  ctx.progress().Finish();
+  const fs::path log = ctx.out_dir() / "colmap.log";
+  WriteFileChecked(log, "$ " + command + "\n" + r.output);
+  if (r.exit_code != 0)
+    throw std::runtime_error(fmt::format(
+        "COLMAP (Debian package colmap) failed ({}): {}; its output is in {}",
+        r.signal ? fmt::format("signal {}", r.signal) : fmt::format("exit status {}", r.exit_code), command,
+        log.string()));
+  if (!fs::exists(output / "cameras.bin"))
+    throw std::runtime_error(fmt::format("COLMAP wrote no model into {} ({}); its output is in {}", output.string(),
+                                         command, log.string()));
+}
+
+RefinedSurvey RestoreGauge(const SlamMapFile& map, const Trajectory& slam_trajectory, const ColmapExport& exported,
+                           const ColmapModel& adjusted, GaugeAnchor anchor) {
+  const auto T_cam_world_ba = KeyframePosesFromModel(adjusted, exported);
+  if (T_cam_world_ba.size() != map.keyframes.size())
+    throw std::runtime_error(fmt::format("COLMAP returned {} of the {} keyframes", T_cam_world_ba.size(),
+                                         map.keyframes.size()));
+  // One gauge per map segment: segments share no observation, so each floats on its own.
+  std::map<int, std::vector<int>> by_segment;
+  for (size_t i = 0; i < map.keyframes.size(); ++i) by_segment[map.keyframes[i].segment].push_back(int(i));
+  std::vector<Eigen::Isometry3d> G_of_keyframe(map.keyframes.size());
+  for (const auto& [segment, members] : by_segment) {
+    std::vector<Eigen::Isometry3d> slam, ba;
+    for (int i : members) {
+      slam.push_back(map.keyframes[i].T_cam_world.inverse());
+      ba.push_back(T_cam_world_ba.at(i).inverse());
+    }
+    const Eigen::Isometry3d G = GaugeTransform(slam, ba, anchor);
+    for (int i : members) G_of_keyframe[i] = G;
+  }
+
+  RefinedSurvey out;
+  out.map = map;
+  std::vector<KeyframeCorrection> corrections;
+  std::vector<Eigen::Isometry3d> C_of_keyframe(map.keyframes.size());
+  std::map<int, int> index_of_keyframe;
+  for (size_t i = 0; i < map.keyframes.size(); ++i) {
+    const Eigen::Isometry3d T_world_cam = G_of_keyframe[i] * T_cam_world_ba.at(int(i)).inverse();
+    const Eigen::Isometry3d T_world_cam_slam = map.keyframes[i].T_cam_world.inverse();
+    C_of_keyframe[i] = T_world_cam * T_world_cam_slam.inverse();
+    corrections.push_back({map.keyframes[i].t_ns, C_of_keyframe[i]});
+    out.map.keyframes[i].T_cam_world = T_world_cam.inverse();
+    out.max_keyframe_move_m =
+        std::max(out.max_keyframe_move_m, (T_world_cam.translation() - T_world_cam_slam.translation()).norm());
+    index_of_keyframe[map.keyframes[i].id] = int(i);
+  }
+  const auto adjusted_points = PointsFromModel(adjusted, exported);
+  for (size_t p = 0; p < map.points.size(); ++p) {
+    auto& point = out.map.points[p];
+    if (point.observations.empty()) continue;
+    const int first = index_of_keyframe.at(point.observations.front().keyframe);
+    const auto it = adjusted_points.find(int(p));
+    point.p_world = it != adjusted_points.end() ? G_of_keyframe[first] * it->second : C_of_keyframe[first] * point.p_world;
+  }
+  out.trajectory = CarryTrajectory(slam_trajectory, corrections);
+
+  out.colmap = adjusted;
+  for (auto& im : out.colmap.images) {
+    const int k = exported.keyframe_of_left_image.at((im.id - 1) / 2);
+    im.SetPose(im.T_cam_world() * G_of_keyframe[k].inverse());
+  }
+  for (auto& p : out.colmap.points) {
+    const int mp = exported.map_point_of_colmap_point.at(p.id - 1);
+    p.xyz = out.map.points[mp].p_world;
+  }
+  return out;
+}
+
+}  // namespace rs
