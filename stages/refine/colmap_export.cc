@@ -1,5 +1,6 @@
 #include "stages/refine/colmap_export.h"
 
+#include <algorithm>
 #include <cmath>
 #include <set>
 #include <stdexcept>
@@ -116,6 +117,13 @@ ColmapExport ExportToColmap(const SlamMapFile& map, const std::vector<int64_t>& 
     }
     ex.model.points.push_back(std::move(p));
     ++ex.counts.points_kept;
+  }
+  // COLMAP's bundle adjuster aborts on an image (or a camera) without observations: such images are
+  // left out; their keyframes then follow their neighbours (RestoreGauge).
+  std::erase_if(ex.model.images, [](const ColmapImage& im) { return im.points2d.empty(); });
+  if (!sel.stereo) {
+    std::erase_if(ex.model.cameras, [](const ColmapCamera& c) { return c.id == kRightCameraId; });
+    ex.rigs.front().cameras.pop_back();
   }
   return ex;
 }

@@ -79,33 +79,38 @@ void RunRigBundleAdjuster(StageContext& ctx, const fs::path& program, const fs::
 RefinedSurvey RestoreGauge(const SlamMapFile& map, const Trajectory& slam_trajectory, const ColmapExport& exported,
                            const ColmapModel& adjusted, GaugeAnchor anchor) {
   const auto T_cam_world_ba = KeyframePosesFromModel(adjusted, exported);
-  if (T_cam_world_ba.size() != map.keyframes.size())
-    throw std::runtime_error(fmt::format("COLMAP returned {} of the {} keyframes", T_cam_world_ba.size(),
-                                         map.keyframes.size()));
+  if (T_cam_world_ba.empty()) throw std::runtime_error("COLMAP returned none of the keyframes");
   // One gauge per map segment: segments share no observation, so each floats on its own.
   std::map<int, std::vector<int>> by_segment;
-  for (size_t i = 0; i < map.keyframes.size(); ++i) by_segment[map.keyframes[i].segment].push_back(int(i));
-  std::vector<Eigen::Isometry3d> G_of_keyframe(map.keyframes.size());
+  for (const auto& [i, T] : T_cam_world_ba) by_segment[map.keyframes[i].segment].push_back(i);
+  std::map<int, Eigen::Isometry3d> G_of_segment;
   for (const auto& [segment, members] : by_segment) {
     std::vector<Eigen::Isometry3d> slam, ba;
     for (int i : members) {
       slam.push_back(map.keyframes[i].T_cam_world.inverse());
       ba.push_back(T_cam_world_ba.at(i).inverse());
     }
-    const Eigen::Isometry3d G = GaugeTransform(slam, ba, anchor);
-    for (int i : members) G_of_keyframe[i] = G;
+    G_of_segment[segment] = GaugeTransform(slam, ba, anchor);
   }
 
   RefinedSurvey out;
   out.map = map;
   std::vector<KeyframeCorrection> corrections;
+  for (const auto& [i, T_cam_world] : T_cam_world_ba) {
+    const Eigen::Isometry3d T_world_cam = G_of_segment.at(map.keyframes[i].segment) * T_cam_world.inverse();
+    const Eigen::Isometry3d T_world_cam_slam = map.keyframes[i].T_cam_world.inverse();
+    corrections.push_back({map.keyframes[i].t_ns, T_world_cam * T_world_cam_slam.inverse()});
+  }
+  // Keyframes COLMAP had no image of (no observation kept) follow their neighbours, like frames.
+  Trajectory keyframes_slam;
+  for (const auto& k : map.keyframes) keyframes_slam.poses.push_back({k.t_ns, k.T_cam_world.inverse()});
+  const Trajectory keyframes_refined = CarryTrajectory(keyframes_slam, corrections);
   std::vector<Eigen::Isometry3d> C_of_keyframe(map.keyframes.size());
   std::map<int, int> index_of_keyframe;
   for (size_t i = 0; i < map.keyframes.size(); ++i) {
-    const Eigen::Isometry3d T_world_cam = G_of_keyframe[i] * T_cam_world_ba.at(int(i)).inverse();
-    const Eigen::Isometry3d T_world_cam_slam = map.keyframes[i].T_cam_world.inverse();
+    const Eigen::Isometry3d& T_world_cam = keyframes_refined.poses[i].T_world_frame;
+    const Eigen::Isometry3d& T_world_cam_slam = keyframes_slam.poses[i].T_world_frame;
     C_of_keyframe[i] = T_world_cam * T_world_cam_slam.inverse();
-    corrections.push_back({map.keyframes[i].t_ns, C_of_keyframe[i]});
     out.map.keyframes[i].T_cam_world = T_world_cam.inverse();
     out.max_keyframe_move_m =
         std::max(out.max_keyframe_move_m, (T_world_cam.translation() - T_world_cam_slam.translation()).norm());
@@ -117,19 +122,21 @@ RefinedSurvey RestoreGauge(const SlamMapFile& map, const Trajectory& slam_trajec
     if (point.observations.empty()) continue;
     const int first = index_of_keyframe.at(point.observations.front().keyframe);
     const auto it = adjusted_points.find(int(p));
-    point.p_world = it != adjusted_points.end() ? G_of_keyframe[first] * it->second : C_of_keyframe[first] * point.p_world;
+    // An adjusted point is in its first keyframe's segment's gauge; every track lies in one segment.
+    point.p_world = it != adjusted_points.end() ? G_of_segment.count(map.keyframes[first].segment)
+                                                      ? G_of_segment.at(map.keyframes[first].segment) * it->second
+                                                      : C_of_keyframe[first] * point.p_world
+                                                : C_of_keyframe[first] * point.p_world;
   }
   out.trajectory = CarryTrajectory(slam_trajectory, corrections);
 
   out.colmap = adjusted;
   for (auto& im : out.colmap.images) {
     const int k = exported.keyframe_of_left_image.at((im.id - 1) / 2);
-    im.SetPose(im.T_cam_world() * G_of_keyframe[k].inverse());
+    im.SetPose(out.map.keyframes[k].T_cam_world);
+    if (im.camera_id == kRightCameraId) im.SetPose(exported.rigs.front().cameras.back().T_cam_rig * im.T_cam_world());
   }
-  for (auto& p : out.colmap.points) {
-    const int mp = exported.map_point_of_colmap_point.at(p.id - 1);
-    p.xyz = out.map.points[mp].p_world;
-  }
+  for (auto& p : out.colmap.points) p.xyz = out.map.points[exported.map_point_of_colmap_point.at(p.id - 1)].p_world;
   return out;
 }
 
