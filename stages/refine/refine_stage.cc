@@ -3,6 +3,8 @@
 #include <fmt/format.h>
 
 #include <chrono>
+#include <fstream>
+#include <iterator>
 #include <map>
 #include <regex>
 
@@ -47,7 +49,11 @@ std::string ColmapMissing(const std::string& program) {
 }
 
 void PassThrough(StageContext& ctx, const fs::path& slam_dir) {
-  WriteTumTrajectory(ctx.out_dir() / "trajectory_refined.tum", ReadTumTrajectory(slam_dir / "trajectory.tum"));
+  // Checked first (a bad trajectory fails here as it would in a refinement), then copied byte for byte.
+  ReadTumTrajectory(slam_dir / "trajectory.tum");
+  std::ifstream in(slam_dir / "trajectory.tum", std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  WriteFileChecked(ctx.out_dir() / "trajectory_refined.tum", bytes);
   WriteSlamMap(ctx.out_dir() / "map", ReadSlamMap(slam_dir / "map"));
   ctx.summary().counts["refined"] = false;
   ctx.Warn("refine.enabled = false: the SLAM trajectory and map are passed through unchanged");
