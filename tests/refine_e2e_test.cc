@@ -109,5 +109,13 @@ TEST_F(RefineE2E, MissingColmapIsBadEnvironmentNamingThePackage) {
   }
 }
 
+// A COLMAP that runs and fails is a processing failure (exit 1) naming the command and its log.
+TEST_F(RefineE2E, FailingColmapIsAProcessingFailure) {
+  const auto r = Run("refine", "--refine.colmap_program=/bin/false");
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("/bin/false rig_bundle_adjuster"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("colmap.log"), std::string::npos) << r.output;
+}
+
 }  // namespace
 }  // namespace rs::test

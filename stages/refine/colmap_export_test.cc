@@ -1,4 +1,5 @@
 #include "stages/refine/colmap_export.h"
+#include "stages/refine/refine_steps.h"
 
 #include <gtest/gtest.h>
 
@@ -70,6 +71,37 @@ TEST(ColmapExport, PointsSeenByOneKeyframeAreLeftOut) {
   const auto points = PointsFromModel(ex.model, ex);
   EXPECT_EQ(points.count(5), 0u);
   EXPECT_EQ(points.at(6), map.points[6].p_world);
+}
+
+// COLMAP's result floating by a rigid motion (the rig BA fixes no gauge) comes back exactly onto the
+// SLAM poses, points and frames; a keyframe COLMAP had no image of follows its neighbours.
+TEST(RestoreGauge, RigidlyMovedResultComesBackExactly) {
+  SlamMapFile map = SyntheticMap();
+  for (auto& p : map.points) p.observations.erase(p.observations.begin() + 2);  // keyframe 12: no observation
+  const ColmapExport ex = ExportToColmap(map, {1, 2, 3, 4}, ObservationSelection{});
+  ASSERT_EQ(ex.model.images.size(), 6u);
+  Eigen::Isometry3d M = Eigen::Isometry3d::Identity();  // world motion of the whole solution
+  M.linear() = Eigen::AngleAxisd(0.4, Eigen::Vector3d(0.2, 1, 0.3).normalized()).toRotationMatrix();
+  M.translation() = Eigen::Vector3d(3, -1, 2);
+  ColmapModel moved = ex.model;
+  for (auto& im : moved.images) im.SetPose(im.T_cam_world() * M.inverse());
+  for (auto& p : moved.points) p.xyz = M * p.xyz;
+  Trajectory slam;  // frames between and beyond the keyframes (t_ns 1000..1003)
+  for (int64_t t = 998; t <= 1005; ++t) {
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.translation() = Eigen::Vector3d(0.3 * (t - 1000), 0.01 * t - 10, 0);
+    slam.poses.push_back({t, T});
+  }
+  for (GaugeAnchor anchor : {GaugeAnchor::kKeyframes, GaugeAnchor::kFirstKeyframe}) {
+    const RefinedSurvey r = RestoreGauge(map, slam, ex, moved, anchor);
+    for (size_t k = 0; k < map.keyframes.size(); ++k)
+      EXPECT_TRUE(r.map.keyframes[k].T_cam_world.isApprox(map.keyframes[k].T_cam_world, 1e-9)) << k;
+    for (size_t p = 0; p < map.points.size(); ++p) EXPECT_LT((r.map.points[p].p_world - map.points[p].p_world).norm(), 1e-9);
+    for (size_t i = 0; i < slam.poses.size(); ++i)
+      EXPECT_TRUE(r.trajectory.poses[i].T_world_frame.isApprox(slam.poses[i].T_world_frame, 1e-9)) << i;
+    EXPECT_LT(r.max_keyframe_move_m, 1e-9);
+    EXPECT_LT(ModelReprojection(r.colmap).rmse_px, 1e-6);
+  }
 }
 
 }  // namespace

@@ -43,9 +43,9 @@ const OptionTable<ObservationSelection>& SelectionTable() {
 
 std::string ColmapMissing(const std::string& program) {
   return fmt::format(
-      "the COLMAP program '{}' was not found: install the Debian package colmap (apt-get install colmap), set "
+      "the COLMAP program '{}' (for `{} rig_bundle_adjuster`) was not found: install the Debian package colmap (apt-get install colmap), set "
       "refine.colmap_program to its path, or set refine.enabled = false to pass the SLAM trajectory through",
-      program);
+      program, program);
 }
 
 void PassThrough(StageContext& ctx, const fs::path& slam_dir) {
