@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <iostream>
+
 #include "formats/colmap/colmap_io.h"
 #include "tests/support/run_program.h"
 
@@ -57,6 +59,8 @@ TEST_F(RefineE2E, LowersReprojectionErrorWithoutRaisingAte) {
   EXPECT_LT(counts["reprojection_rmse_px_after"].get<double>(), counts["reprojection_rmse_px_before"].get<double>());
   const fs::path out = root_ / "out";
   const double before = AteRmse(out / "trajectory.tum"), after = AteRmse(out / "trajectory_refined.tum");
+  std::cout << "reprojection RMSE " << counts["reprojection_rmse_px_before"] << " -> "
+            << counts["reprojection_rmse_px_after"] << " px, ATE " << before << " -> " << after << " m\n";
   // Tolerance: 2 % of the SLAM's own error or 1 mm, whichever is larger (different solver, same minimum).
   EXPECT_LE(after, before + std::max(0.02 * before, 0.001)) << "ATE before " << before << " m, after " << after << " m";
   // Every SLAM frame is in the refined trajectory; the published model reads back and COLMAP itself opens it.
