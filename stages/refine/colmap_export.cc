@@ -41,6 +41,55 @@ ColmapCamera Pinhole(uint32_t id, const SlamMapCamera& c) {
           {c.fx, c.fy, c.cx + kColmapPixelShift, c.cy + kColmapPixelShift}};
 }
 
+// The same observations with one camera per (side, level): pixels scaled by 1/sigma_level, so that
+// an unweighted residual in that camera is the residual over its sigma.
+void MakeLevelWeightedProblem(const SlamMapFile& map, int max_level, ColmapExport* ex) {
+  const int levels = std::min(max_level, map.pyramid_levels - 1) + 1;
+  ex->images_per_keyframe = 2 * levels;
+  ColmapModel& out = ex->problem;
+  out.cameras.clear();
+  ColmapRig rig{kLeftCameraId, {}};
+  for (int l = 0; l < levels; ++l) {
+    const double s = map.LevelSigmaPx(l);
+    for (int side = 0; side < 2; ++side) {
+      const ColmapCamera& base = ex->model.cameras[side];
+      ColmapCamera c = base;
+      c.id = static_cast<uint32_t>(1 + 2 * l + side);
+      for (double& p : c.params) p /= s;
+      c.width = static_cast<uint64_t>(std::ceil(base.width / s));
+      c.height = static_cast<uint64_t>(std::ceil(base.height / s));
+      out.cameras.push_back(c);
+      const std::string prefix = std::string(side ? "right" : "left") + (l ? fmt::format("_level{}/", l) : "/");
+      rig.cameras.push_back({c.id, prefix, ex->rigs.front().cameras[side].T_cam_rig});
+    }
+  }
+  ex->problem_rigs = {rig};
+  out.images.clear();
+  out.points = ex->model.points;
+  for (auto& p : out.points) p.track.clear();
+  std::map<uint64_t, size_t> point_index;
+  for (size_t k = 0; k < out.points.size(); ++k) point_index[out.points[k].id] = k;
+  for (size_t i = 0; i < map.keyframes.size(); ++i) {
+    for (int l = 0; l < levels; ++l)
+      for (int side = 0; side < 2; ++side) {
+        const ColmapImage& plain = ex->model.images[2 * i + side];
+        ColmapImage im = plain;
+        im.id = static_cast<uint32_t>(1 + ex->images_per_keyframe * i + 2 * l + side);
+        im.camera_id = static_cast<uint32_t>(1 + 2 * l + side);
+        im.name = rig.cameras[2 * l + side].image_prefix + plain.name.substr(plain.name.find('/') + 1);
+        im.points2d.clear();
+        const double s = map.LevelSigmaPx(l);
+        for (size_t k = 0; k < plain.points2d.size(); ++k) {
+          if (ex->level_of_point2d[plain.id - 1][k] != l) continue;
+          const auto& o = plain.points2d[k];
+          out.points[point_index.at(o.point3d_id)].track.push_back({im.id, static_cast<uint32_t>(im.points2d.size())});
+          im.points2d.push_back({o.x / s, o.y / s, o.point3d_id});
+        }
+        out.images.push_back(std::move(im));
+      }
+  }
+}
+
 }  // namespace
 
 ColmapExport ExportToColmap(const SlamMapFile& map, const std::vector<int64_t>& frame_of_keyframe,
@@ -56,6 +105,7 @@ ColmapExport ExportToColmap(const SlamMapFile& map, const std::vector<int64_t>& 
   ex.rigs = {{kLeftCameraId, {{kLeftCameraId, "left/", Eigen::Isometry3d::Identity()}, {kRightCameraId, "right/", T_right_left}}}};
 
   std::map<int, int> index_of_keyframe;
+  ex.level_of_point2d.resize(2 * map.keyframes.size());
   for (size_t i = 0; i < map.keyframes.size(); ++i) {
     const auto& kf = map.keyframes[i];
     index_of_keyframe[kf.id] = static_cast<int>(i);
@@ -107,6 +157,7 @@ ColmapExport ExportToColmap(const SlamMapFile& map, const std::vector<int64_t>& 
       auto add = [&](ColmapImage& im, double u) {
         p.track.push_back({im.id, static_cast<uint32_t>(im.points2d.size())});
         im.points2d.push_back({u + kColmapPixelShift, o->v_px + kColmapPixelShift, p.id});
+        ex.level_of_point2d[im.id - 1].push_back(o->level);
       };
       add(ex.model.images[2 * k], o->u_px);
       ++ex.counts.kept_left;
@@ -118,13 +169,22 @@ ColmapExport ExportToColmap(const SlamMapFile& map, const std::vector<int64_t>& 
     ex.model.points.push_back(std::move(p));
     ++ex.counts.points_kept;
   }
+  if (sel.level_weighting) {
+    MakeLevelWeightedProblem(map, sel.max_level, &ex);
+  } else {
+    ex.problem = ex.model;
+    ex.problem_rigs = ex.rigs;
+  }
   // COLMAP's bundle adjuster aborts on an image (or a camera) without observations: such images are
   // left out; their keyframes then follow their neighbours (RestoreGauge).
-  std::erase_if(ex.model.images, [](const ColmapImage& im) { return im.points2d.empty(); });
-  if (!sel.stereo) {
-    std::erase_if(ex.model.cameras, [](const ColmapCamera& c) { return c.id == kRightCameraId; });
-    ex.rigs.front().cameras.pop_back();
+  for (ColmapModel* m : {&ex.model, &ex.problem}) {
+    std::erase_if(m->images, [](const ColmapImage& im) { return im.points2d.empty(); });
+    std::erase_if(m->cameras, [&](const ColmapCamera& c) {
+      return std::none_of(m->images.begin(), m->images.end(), [&](const auto& im) { return im.camera_id == c.id; });
+    });
   }
+  std::erase_if(ex.rigs.front().cameras, [&](const auto& c) { return !ex.model.FindCamera(c.camera_id); });
+  std::erase_if(ex.problem_rigs.front().cameras, [&](const auto& c) { return !ex.problem.FindCamera(c.camera_id); });
   return ex;
 }
 
@@ -152,10 +212,11 @@ ReprojectionStats ModelReprojection(const ColmapModel& model) {
 
 std::map<int, Eigen::Isometry3d> KeyframePosesFromModel(const ColmapModel& model, const ColmapExport& ex) {
   std::map<int, Eigen::Isometry3d> out;
+  // Every left image of a keyframe (any level) has the rig's pose.
   for (const auto& im : model.images) {
-    if (im.camera_id != kLeftCameraId || im.id % 2 != 1) continue;
-    const size_t i = (im.id - 1) / 2;
-    if (i < ex.keyframe_of_left_image.size()) out[ex.keyframe_of_left_image[i]] = im.T_cam_world();
+    const size_t i = (im.id - 1) / ex.images_per_keyframe;
+    if ((im.id - 1) % 2 != 0 || i >= ex.keyframe_of_left_image.size()) continue;
+    out[ex.keyframe_of_left_image[i]] = im.T_cam_world();
   }
   return out;
 }

@@ -24,6 +24,9 @@ struct ObservationSelection {
   double chi2_mono = 5.991;        ///< 95 % of chi-square, 2 dof: (du² + dv²) / sigma² above this is an outlier
   double chi2_stereo = 7.815;      ///< 95 % of chi-square, 3 dof: with the right image's du
   int min_keyframes = 2;           ///< a point is kept when its kept observations span this many keyframes
+  /// Give COLMAP one camera per pyramid level, its pixels scaled by 1/sigma (focal length, principal
+  /// point and the observations alike), so that COLMAP's residuals are whitened by each level's sigma.
+  bool level_weighting = false;
 };
 
 /// What the export kept and left out.
@@ -39,9 +42,13 @@ struct ExportCounts {
 };
 
 struct ColmapExport {
-  ColmapModel model;
-  std::vector<ColmapRig> rigs;
-  std::vector<int> keyframe_of_left_image;  ///< keyframe index in the map for image id 2i+1 (left), 2i+2 (right)
+  ColmapModel model;             ///< left and right images in pixels: what is published and scored
+  std::vector<ColmapRig> rigs;   ///< its rig (left, right)
+  ColmapModel problem;           ///< what COLMAP adjusts: `model`, or per level cameras (level_weighting)
+  std::vector<ColmapRig> problem_rigs;
+  int images_per_keyframe = 2;   ///< problem image id = 1 + images_per_keyframe * i + 2 * level + side
+  std::vector<std::vector<int>> level_of_point2d;  ///< per `model` image, each 2D point's pyramid level
+  std::vector<int> keyframe_of_left_image;  ///< keyframe index in the map for model image id 2i+1 (left), 2i+2 (right)
   std::vector<int> map_point_of_colmap_point;  ///< map point index of COLMAP point id k+1
   ExportCounts counts;
 };

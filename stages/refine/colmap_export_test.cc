@@ -104,5 +104,33 @@ TEST(RestoreGauge, RigidlyMovedResultComesBackExactly) {
   }
 }
 
+// Per-level cameras: an observation at level l and its residual are scaled by 1/1.2^l; the exact
+// map still reprojects to zero; a residual of 1.2^l px at level l weighs 1 px.
+TEST(ColmapExport, LevelWeightingWhitensResiduals) {
+  SlamMapFile map = SyntheticMap();
+  map.points[0].observations[1].u_px -= 20;  // no outlier this time
+  for (size_t p = 0; p < map.points.size(); ++p) map.points[p].observations[0].level = int(p % 3);
+  ObservationSelection sel;
+  sel.level_weighting = true;
+  sel.max_level = 7;
+  ColmapExport ex = ExportToColmap(map, {1, 2, 3, 4}, sel);
+  EXPECT_EQ(ex.images_per_keyframe, 16);
+  EXPECT_EQ(ModelReprojection(ex.problem).observations, ModelReprojection(ex.model).observations);
+  EXPECT_LT(ModelReprojection(ex.problem).rmse_px, 1e-9);
+  // Move point 2's level-2 left observation by 1.44 px: 1 px in the problem, 1.44 px in the model.
+  for (auto& im : ex.model.images)
+    for (auto& o : im.points2d)
+      if (im.id == 1 && o.point3d_id == 3) o.x += 1.44;
+  for (auto& im : ex.problem.images)
+    for (auto& o : im.points2d)
+      if (im.camera_id == 5 && im.id == 1 + 4 && o.point3d_id == 3) o.x += 1.44 / 1.44;
+  const auto m = ModelReprojection(ex.model), p = ModelReprojection(ex.problem);
+  EXPECT_NEAR(m.rmse_px * m.rmse_px * m.observations, 1.44 * 1.44, 1e-9);
+  EXPECT_NEAR(p.rmse_px * p.rmse_px * p.observations, 1.0, 1e-9);
+  const auto poses = KeyframePosesFromModel(ex.problem, ex);
+  ASSERT_EQ(poses.size(), 4u);
+  EXPECT_TRUE(poses.at(3).isApprox(map.keyframes[3].T_cam_world, 1e-12));
+}
+
 }  // namespace
 }  // namespace rs

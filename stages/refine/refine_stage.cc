@@ -37,7 +37,10 @@ const OptionTable<ObservationSelection>& SelectionTable() {
           .Above(0)
           .Add("min_keyframes", &ObservationSelection::min_keyframes,
                "a point is exported when its kept observations span at least this many keyframes")
-          .Min(1);
+          .Min(1)
+          .Add("level_weighting", &ObservationSelection::level_weighting,
+               "one COLMAP camera per pyramid level with its pixels scaled by 1/sigma, so that each residual is "
+               "weighted by its level's sigma as in the SLAM's own BA");
   return t;
 }
 
@@ -118,8 +121,8 @@ void RefineStage::Run(StageContext& ctx, const RefineOptions& o) const {
   const auto frames = ReadFrameIndex(ctx.input_dir("frames") / "frames.csv");
   const ColmapExport exported = ExportToColmap(map, FrameIdsOfKeyframes(map, frames, slam_dir / "map"), o.selection);
   const fs::path in_dir = ctx.out_dir() / "colmap_input", ba_dir = ctx.out_dir() / "colmap_ba";
-  WriteColmapModel(in_dir, exported.model, ColmapFormat::kBinary);
-  WriteFileChecked(ctx.out_dir() / "rig_config.json", ColmapRigConfigJson(exported.rigs));
+  WriteColmapModel(in_dir, exported.problem, ColmapFormat::kBinary);
+  WriteFileChecked(ctx.out_dir() / "rig_config.json", ColmapRigConfigJson(exported.problem_rigs));
   ctx.Time("export", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
 
   const auto t1 = std::chrono::steady_clock::now();

@@ -130,7 +130,7 @@ RefinedSurvey RestoreGauge(const SlamMapFile& map, const Trajectory& slam_trajec
   }
   out.trajectory = CarryTrajectory(slam_trajectory, corrections);
 
-  out.colmap = adjusted;
+  out.colmap = exported.model;  // left and right in pixels, whatever cameras COLMAP adjusted
   for (auto& im : out.colmap.images) {
     const int k = exported.keyframe_of_left_image.at((im.id - 1) / 2);
     im.SetPose(out.map.keyframes[k].T_cam_world);
