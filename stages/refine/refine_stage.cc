@@ -82,6 +82,10 @@ const OptionTable<RefineOptions>& RefineOptions::Table() {
           .Include("", &RefineOptions::selection, SelectionTable())
           .Add("max_iterations", &RefineOptions::max_iterations, "COLMAP bundle adjustment iterations at most")
           .Min(1)
+          .Add("function_tolerance", &RefineOptions::function_tolerance,
+               "the adjustment stops when an iteration lowers the cost by less than this fraction (Ceres' default; "
+               "COLMAP's own default 0 runs every iteration)")
+          .Min(0)
           .AddEnum("anchor", &RefineOptions::anchor,
                    {{"keyframes", GaugeAnchor::kKeyframes}, {"first_keyframe", GaugeAnchor::kFirstKeyframe}},
                    "how the result is put back into the SLAM world frame: the rigid motion that best maps all "
@@ -126,7 +130,8 @@ void RefineStage::Run(StageContext& ctx, const RefineOptions& o) const {
   ctx.Time("export", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
 
   const auto t1 = std::chrono::steady_clock::now();
-  RunRigBundleAdjuster(ctx, *program, in_dir, ctx.out_dir() / "rig_config.json", ba_dir, o.max_iterations);
+  RunRigBundleAdjuster(ctx, *program, in_dir, ctx.out_dir() / "rig_config.json", ba_dir, o.max_iterations,
+                       o.function_tolerance);
   ctx.Time("colmap", std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count());
 
   const auto t2 = std::chrono::steady_clock::now();

@@ -16,6 +16,7 @@ struct RefineOptions {
   std::string colmap_program = "colmap"; ///< the COLMAP executable (a name looked up in PATH, or a path)
   ObservationSelection selection;        ///< which observations the bundle adjustment sees
   int max_iterations = 100;              ///< COLMAP's BundleAdjustment.max_num_iterations
+  double function_tolerance = 1e-6;      ///< COLMAP's BundleAdjustment.function_tolerance (Ceres' default)
   GaugeAnchor anchor = GaugeAnchor::kKeyframes;
 
   void Check() const;

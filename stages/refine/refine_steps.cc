@@ -29,7 +29,7 @@ std::vector<int64_t> FrameIdsOfKeyframes(const SlamMapFile& map, const std::vect
 }
 
 std::vector<std::string> RigBundleAdjusterArgs(const fs::path& input, const fs::path& rig_config, const fs::path& output,
-                                               int max_iterations) {
+                                               int max_iterations, double function_tolerance) {
   return {"rig_bundle_adjuster",
           "--input_path", input.string(),
           "--output_path", output.string(),
@@ -40,13 +40,14 @@ std::vector<std::string> RigBundleAdjusterArgs(const fs::path& input, const fs::
           "--BundleAdjustment.refine_principal_point", "0",
           "--BundleAdjustment.refine_extra_params", "0",
           "--BundleAdjustment.max_num_iterations", std::to_string(max_iterations),
+          "--BundleAdjustment.function_tolerance", fmt::format("{}", function_tolerance),
           "--log_to_stderr", "1"};
 }
 
 void RunRigBundleAdjuster(StageContext& ctx, const fs::path& program, const fs::path& input, const fs::path& rig_config,
-                          const fs::path& output, int max_iterations) {
+                          const fs::path& output, int max_iterations, double function_tolerance) {
   fs::create_directories(output);
-  const auto args = RigBundleAdjusterArgs(input, rig_config, output, max_iterations);
+  const auto args = RigBundleAdjusterArgs(input, rig_config, output, max_iterations, function_tolerance);
   const std::string command = CommandLine(program, args);
   ctx.progress().Start("colmap rig BA", max_iterations, "iterations");
   // Ceres prints one line per iteration that starts with its number.

@@ -23,13 +23,14 @@ std::vector<int64_t> FrameIdsOfKeyframes(const SlamMapFile& map, const std::vect
 /// The command-line arguments of `colmap rig_bundle_adjuster` (3.8): intrinsics and the rig's
 /// relative pose fixed.
 std::vector<std::string> RigBundleAdjusterArgs(const std::filesystem::path& input, const std::filesystem::path& rig_config,
-                                               const std::filesystem::path& output, int max_iterations);
+                                               const std::filesystem::path& output, int max_iterations,
+                                               double function_tolerance);
 
 /// Runs it, its output into `<out>/colmap.log` and the progress display. Throws std::runtime_error
 /// naming the command and the log when it fails.
 void RunRigBundleAdjuster(StageContext& ctx, const std::filesystem::path& program, const std::filesystem::path& input,
                           const std::filesystem::path& rig_config, const std::filesystem::path& output,
-                          int max_iterations);
+                          int max_iterations, double function_tolerance);
 
 struct RefinedSurvey {
   Trajectory trajectory;  ///< every SLAM frame, carried with its keyframes
