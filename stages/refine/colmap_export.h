@@ -19,14 +19,14 @@ namespace rs {
 
 /// Which observations go into the COLMAP problem.
 struct ObservationSelection {
-  int max_level = 2;               ///< coarser pyramid levels are left out (their sigma is scale_factor^level)
+  int max_level = 7;               ///< coarser pyramid levels are left out (their sigma is scale_factor^level); 7: all of the default 8
   bool stereo = true;              ///< add each stereo match as an observation in the right image
   double chi2_mono = 5.991;        ///< 95 % of chi-square, 2 dof: (du² + dv²) / sigma² above this is an outlier
   double chi2_stereo = 7.815;      ///< 95 % of chi-square, 3 dof: with the right image's du
   int min_keyframes = 2;           ///< a point is kept when its kept observations span this many keyframes
   /// Give COLMAP one camera per pyramid level, its pixels scaled by 1/sigma (focal length, principal
   /// point and the observations alike), so that COLMAP's residuals are whitened by each level's sigma.
-  bool level_weighting = false;
+  bool level_weighting = true;
 };
 
 /// What the export kept and left out.

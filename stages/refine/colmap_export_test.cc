@@ -41,9 +41,17 @@ SlamMapFile SyntheticMap() {
   return m;
 }
 
+// Levels above 2 dropped, equal weights.
+ObservationSelection UpToLevel2() {
+  ObservationSelection sel;
+  sel.max_level = 2;
+  sel.level_weighting = false;
+  return sel;
+}
+
 TEST(ColmapExport, ExactMapReprojectsToZeroAndDropsWhatTheRulesSay) {
   const SlamMapFile map = SyntheticMap();
-  const ColmapExport ex = ExportToColmap(map, {1, 2, 3, 4}, ObservationSelection{});
+  const ColmapExport ex = ExportToColmap(map, {1, 2, 3, 4}, UpToLevel2());
   EXPECT_EQ(ex.counts.observations, 120);
   EXPECT_EQ(ex.counts.dropped_outlier, 1);
   EXPECT_EQ(ex.counts.dropped_level, 1);
@@ -61,7 +69,7 @@ TEST(ColmapExport, ExactMapReprojectsToZeroAndDropsWhatTheRulesSay) {
 TEST(ColmapExport, PointsSeenByOneKeyframeAreLeftOut) {
   SlamMapFile map = SyntheticMap();
   map.points[5].observations.resize(1);
-  const ColmapExport ex = ExportToColmap(map, {1, 2, 3, 4}, ObservationSelection{});
+  const ColmapExport ex = ExportToColmap(map, {1, 2, 3, 4}, UpToLevel2());
   EXPECT_EQ(ex.counts.points_kept, 29);
   EXPECT_EQ(ex.counts.dropped_weak_point, 1);
   // Round trip of poses and points through the model.
@@ -78,12 +86,15 @@ TEST(ColmapExport, PointsSeenByOneKeyframeAreLeftOut) {
 TEST(RestoreGauge, RigidlyMovedResultComesBackExactly) {
   SlamMapFile map = SyntheticMap();
   for (auto& p : map.points) p.observations.erase(p.observations.begin() + 2);  // keyframe 12: no observation
-  const ColmapExport ex = ExportToColmap(map, {1, 2, 3, 4}, ObservationSelection{});
+  for (bool weighted : {false, true}) {
+  ObservationSelection sel;
+  sel.level_weighting = weighted;
+  const ColmapExport ex = ExportToColmap(map, {1, 2, 3, 4}, sel);
   ASSERT_EQ(ex.model.images.size(), 6u);
   Eigen::Isometry3d M = Eigen::Isometry3d::Identity();  // world motion of the whole solution
   M.linear() = Eigen::AngleAxisd(0.4, Eigen::Vector3d(0.2, 1, 0.3).normalized()).toRotationMatrix();
   M.translation() = Eigen::Vector3d(3, -1, 2);
-  ColmapModel moved = ex.model;
+  ColmapModel moved = ex.problem;
   for (auto& im : moved.images) im.SetPose(im.T_cam_world() * M.inverse());
   for (auto& p : moved.points) p.xyz = M * p.xyz;
   Trajectory slam;  // frames between and beyond the keyframes (t_ns 1000..1003)
@@ -101,6 +112,7 @@ TEST(RestoreGauge, RigidlyMovedResultComesBackExactly) {
       EXPECT_TRUE(r.trajectory.poses[i].T_world_frame.isApprox(slam.poses[i].T_world_frame, 1e-9)) << i;
     EXPECT_LT(r.max_keyframe_move_m, 1e-9);
     EXPECT_LT(ModelReprojection(r.colmap).rmse_px, 1e-6);
+  }
   }
 }
 
