@@ -144,5 +144,19 @@ TEST(ColmapExport, LevelWeightingWhitensResiduals) {
   EXPECT_TRUE(poses.at(3).isApprox(map.keyframes[3].T_cam_world, 1e-12));
 }
 
+// Values that differ by solver noise (1e-15) round to the same bytes; the rounding moves nothing by
+// more than half a step.
+TEST(RoundModel, NoiseRoundsAway) {
+  const ColmapExport ex = ExportToColmap(SyntheticMap(), {1, 2, 3, 4}, ObservationSelection{});
+  ColmapModel a = ex.model, b = ex.model;
+  for (auto& im : b.images) im.t_cam_world += Eigen::Vector3d::Constant(3e-15);
+  for (auto& p : b.points) p.xyz -= Eigen::Vector3d::Constant(2e-15);
+  RoundModel(&a, 1e-7);
+  RoundModel(&b, 1e-7);
+  EXPECT_EQ(ColmapImagesBinary(a.images), ColmapImagesBinary(b.images));
+  EXPECT_EQ(ColmapPointsBinary(a.points), ColmapPointsBinary(b.points));
+  for (size_t i = 0; i < a.points.size(); ++i) EXPECT_LE((a.points[i].xyz - ex.model.points[i].xyz).lpNorm<Eigen::Infinity>(), 0.5e-7 + 1e-15);
+}
+
 }  // namespace
 }  // namespace rs

@@ -135,7 +135,8 @@ void RefineStage::Run(StageContext& ctx, const RefineOptions& o) const {
   ctx.Time("colmap", std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count());
 
   const auto t2 = std::chrono::steady_clock::now();
-  const ColmapModel adjusted = ReadColmapModel(ba_dir);
+  ColmapModel adjusted = ReadColmapModel(ba_dir);
+  RoundModel(&adjusted, 1e-7);  // reruns agree byte for byte (refine_steps.h)
   const RefinedSurvey refined = RestoreGauge(map, slam_trajectory, exported, adjusted, o.anchor);
   WriteTumTrajectory(ctx.out_dir() / "trajectory_refined.tum", refined.trajectory);
   WriteSlamMap(ctx.out_dir() / "map", refined.map);

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
 #include <map>
 #include <stdexcept>
 
@@ -75,6 +76,17 @@ void RunRigBundleAdjuster(StageContext& ctx, const fs::path& program, const fs::
   if (!fs::exists(output / "cameras.bin"))
     throw std::runtime_error(fmt::format("COLMAP wrote no model into {} ({}); its output is in {}", output.string(),
                                          command, log.string()));
+}
+
+void RoundModel(ColmapModel* model, double step) {
+  const auto round = [step](double v) { return std::round(v / step) * step; };
+  for (auto& im : model->images) {
+    for (int k = 0; k < 4; ++k) im.q_cam_world.coeffs()[k] = round(im.q_cam_world.coeffs()[k]);
+    im.q_cam_world.normalize();
+    for (int k = 0; k < 3; ++k) im.t_cam_world[k] = round(im.t_cam_world[k]);
+  }
+  for (auto& p : model->points)
+    for (int k = 0; k < 3; ++k) p.xyz[k] = round(p.xyz[k]);
 }
 
 RefinedSurvey RestoreGauge(const SlamMapFile& map, const Trajectory& slam_trajectory, const ColmapExport& exported,

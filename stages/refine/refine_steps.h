@@ -32,6 +32,12 @@ void RunRigBundleAdjuster(StageContext& ctx, const std::filesystem::path& progra
                           const std::filesystem::path& rig_config, const std::filesystem::path& output,
                           int max_iterations, double function_tolerance);
 
+/// Rounds every pose (translation and quaternion components) and point coordinate of `model` to a
+/// multiple of `step` (quaternions renormalised). COLMAP's multithreaded solver sums in thread order,
+/// so two runs differ by ~1e-15; rounded to 1e-7 (0.1 µm, ~0.02 arcsec) they agree byte for byte
+/// except in the rare case that a value lies within that noise of a rounding boundary.
+void RoundModel(ColmapModel* model, double step);
+
 struct RefinedSurvey {
   Trajectory trajectory;  ///< every SLAM frame, carried with its keyframes
   SlamMapFile map;        ///< keyframes and points in the SLAM world frame
