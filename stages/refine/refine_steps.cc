@@ -79,7 +79,8 @@ void RunRigBundleAdjuster(StageContext& ctx, const fs::path& program, const fs::
 }
 
 void RoundModel(ColmapModel* model, double step) {
-  const auto round = [step](double v) { return std::round(v / step) * step; };
+  // + 0.0 turns -0 into 0: a value at zero may come back from COLMAP with either sign.
+  const auto round = [step](double v) { return std::round(v / step) * step + 0.0; };
   for (auto& im : model->images) {
     for (int k = 0; k < 4; ++k) im.q_cam_world.coeffs()[k] = round(im.q_cam_world.coeffs()[k]);
     im.q_cam_world.normalize();
