@@ -19,8 +19,9 @@ struct ChildResult {
   std::string output;    ///< stdout and stderr, interleaved as written
 };
 
-/// Runs `program` with `args` (posix_spawn, no shell), both output streams into one pipe;
-/// `on_line` sees each output line as it arrives. Throws std::system_error when it cannot start.
+/// Runs `program` with `args` (fork and exec, no shell), both output streams into one pipe;
+/// `on_line` sees each output line as it arrives. The child is killed if this process dies.
+/// Throws std::system_error when it cannot fork; a program that cannot be executed exits 127.
 ChildResult RunChild(const std::filesystem::path& program, const std::vector<std::string>& args,
                      const std::function<void(std::string_view line)>& on_line);
 
