@@ -14,6 +14,7 @@ packages=(
   libpugixml-dev libyaml-cpp-dev
   libgtest-dev libgmock-dev
   clang libclang-rt-14-dev
+  colmap
 )
 
 missing=()

@@ -4,6 +4,7 @@
 #include "stages/disparity/disparity_stage.h"
 #include "stages/georeference/georeference_stage.h"
 #include "stages/ingest/ingest_stage.h"
+#include "stages/refine/refine_stage.h"
 #include "stages/slam/slam_stage.h"
 #include "survey/stage.h"
 
@@ -14,6 +15,7 @@ void RegisterBuiltinStages(StageRegistry& registry) {
   registry.Add(std::make_unique<DisparityStage>());
   registry.Add(std::make_unique<DamageStage>());
   registry.Add(std::make_unique<SlamStage>());
+  registry.Add(std::make_unique<RefineStage>());
   registry.Add(std::make_unique<GeoreferenceStage>());
 }
 

@@ -22,8 +22,8 @@ struct AlignedInputs {
 };
 inline constexpr AlignedInputs kSlamOutputs{"trajectory", "trajectory.tum", "map", "map"};
 inline constexpr AlignedInputs kRefinedOutputs{"trajectory_refined", "trajectory_refined.tum", "refined_map", "map"};
-/// What the stage reads: the slam stage's outputs (kRefinedOutputs once refine is in the graph).
-inline constexpr AlignedInputs kGeoreferenceInputs = kSlamOutputs;
+/// What the stage reads: the refine stage's outputs (slam's when refine is disabled: a copy).
+inline constexpr AlignedInputs kGeoreferenceInputs = kRefinedOutputs;
 
 struct GeoreferenceStageOptions {
   bool estimate_scale = false;      ///< Sim(3) instead of SE(3) at the stereo rig's metric scale
