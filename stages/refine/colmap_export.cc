@@ -41,6 +41,13 @@ ColmapCamera Pinhole(uint32_t id, const SlamMapCamera& c) {
           {c.fx, c.fy, c.cx + kColmapPixelShift, c.cy + kColmapPixelShift}};
 }
 
+// A rectified pair measures a stereo point's row once: the right image's v is the left one's. The
+// SLAM's stereo residual is (u_left, v, u_right); COLMAP's right observation would add v a second
+// time and double its weight against u. The right cameras' rows are therefore scaled down by
+// kRightRowScale (fy and cy with them), which leaves that second v a weight of 1/kRightRowScale^2.
+constexpr double kRightRowScale = 1000;
+double RowScale(int side) { return side == 1 ? kRightRowScale : 1.0; }
+
 // The same observations with one camera per (side, level): pixels scaled by 1/sigma_level, so that
 // an unweighted residual in that camera is the residual over its sigma.
 void MakeLevelWeightedProblem(const SlamMapFile& map, int max_level, ColmapExport* ex) {
@@ -55,9 +62,11 @@ void MakeLevelWeightedProblem(const SlamMapFile& map, int max_level, ColmapExpor
       const ColmapCamera& base = ex->model.cameras[side];
       ColmapCamera c = base;
       c.id = static_cast<uint32_t>(1 + 2 * l + side);
-      for (double& p : c.params) p /= s;
+      const double sy = s * RowScale(side);
+      c.params[0] /= s, c.params[2] /= s;
+      c.params[1] /= sy, c.params[3] /= sy;
       c.width = static_cast<uint64_t>(std::ceil(base.width / s));
-      c.height = static_cast<uint64_t>(std::ceil(base.height / s));
+      c.height = static_cast<uint64_t>(std::max(1.0, std::ceil(base.height / sy)));
       out.cameras.push_back(c);
       const std::string prefix = std::string(side ? "right" : "left") + (l ? fmt::format("_level{}/", l) : "/");
       rig.cameras.push_back({c.id, prefix, ex->rigs.front().cameras[side].T_cam_rig});
@@ -83,7 +92,7 @@ void MakeLevelWeightedProblem(const SlamMapFile& map, int max_level, ColmapExpor
           if (ex->level_of_point2d[plain.id - 1][k] != l) continue;
           const auto& o = plain.points2d[k];
           out.points[point_index.at(o.point3d_id)].track.push_back({im.id, static_cast<uint32_t>(im.points2d.size())});
-          im.points2d.push_back({o.x / s, o.y / s, o.point3d_id});
+          im.points2d.push_back({o.x / s, o.y / (s * RowScale(side)), o.point3d_id});
         }
         out.images.push_back(std::move(im));
       }

@@ -144,6 +144,28 @@ TEST(ColmapExport, LevelWeightingWhitensResiduals) {
   EXPECT_TRUE(poses.at(3).isApprox(map.keyframes[3].T_cam_world, 1e-12));
 }
 
+// The right image's row repeats the left one's (rectified): in the weighted problem a 1 px row error
+// in the right image weighs 1/1000^2 of a 1 px column error, so each stereo point's row counts once,
+// as in the SLAM's (u_left, v, u_right) residual.
+TEST(ColmapExport, RightImageRowCountsOnce) {
+  ObservationSelection sel;
+  sel.level_weighting = true;
+  for (bool row : {true, false}) {
+    ColmapExport ex = ExportToColmap(SyntheticMap(), {1, 2, 3, 4}, sel);
+    ColmapImage* right = nullptr;  // keyframe 0's level-0 right image
+    for (auto& im : ex.problem.images)
+      if (im.camera_id == 2 && !im.points2d.empty()) right = &im;
+    ASSERT_NE(right, nullptr);
+    const ColmapCamera& cam = ex.problem.cameras[1];
+    ASSERT_EQ(cam.id, 2u);
+    // 1 px of the original image, in this camera's units (params: fx, fy, cx, cy).
+    const double px = row ? cam.params[1] / SyntheticMap().camera.fy : cam.params[0] / SyntheticMap().camera.fx;
+    (row ? right->points2d[0].y : right->points2d[0].x) += px;
+    const auto r = ModelReprojection(ex.problem);
+    EXPECT_NEAR(r.rmse_px * r.rmse_px * r.observations, row ? 1e-6 : 1.0, 1e-12) << (row ? "row" : "column");
+  }
+}
+
 // Values that differ by solver noise (1e-15) round to the same bytes; the rounding moves nothing by
 // more than half a step.
 TEST(RoundModel, NoiseRoundsAway) {
