@@ -1,0 +1,47 @@
+// Crack detection on real pavement patches (Crack500 and DeepCrack crops, shared data):
+// pixel precision / recall / F1 at a 2 px tolerance, pooled over each split. The full splits
+// are scored by `roadsurvey eval cracks DIR`; ROADSURVEY_CRACK_EVAL_DIR=DIR runs the benchmark
+// here (_OPTIONS='{...}' crack options, _MAX=n images) and prints the figures.
+#include "eval/damage/crack_folder_eval.h"
+
+#include "tests/support/test_data.h"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <cstdio>
+#include <cstdlib>
+
+namespace rs {
+namespace {
+
+CrackOptions OptionsFromEnv() {
+  const char* env = std::getenv("ROADSURVEY_CRACK_EVAL_OPTIONS");
+  if (!env || !*env) return CrackOptions();
+  nlohmann::json j = CrackOptions::Table().ToJson(CrackOptions());
+  j.merge_patch(nlohmann::json::parse(env));
+  CrackOptions o = CrackOptions::Table().FromJson(j);
+  o.Check();
+  return o;
+}
+
+void Print(const char* what, const CrackFolderEvaluation& e) {
+  const TolerantPixelScore& s = e.overall;
+  std::printf("%s: %zu images, P %.3f R %.3f F1 %.3f, %d without a crack detected\n", what, e.images.size(),
+              s.Precision(), s.Recall(), s.F1(), e.images_without_crack);
+}
+
+TEST(CrackFolderEval, Benchmark) {
+  const char* dir = std::getenv("ROADSURVEY_CRACK_EVAL_DIR");
+  if (!dir || !*dir) GTEST_SKIP() << "set ROADSURVEY_CRACK_EVAL_DIR to a folder with images/ and masks/";
+  const char* max = std::getenv("ROADSURVEY_CRACK_EVAL_MAX");
+  const CrackFolderEvaluation e = EvaluateCrackFolder(dir, OptionsFromEnv(), 2.0, max ? std::atoi(max) : 0);
+  if (std::getenv("ROADSURVEY_CRACK_EVAL_VERBOSE"))
+    for (const auto& r : e.images)
+      std::printf("%-32s P %.3f R %.3f F1 %.3f cracks %d\n", r.name.c_str(), r.score.Precision(), r.score.Recall(),
+                  r.score.F1(), r.cracks);
+  Print(dir, e);
+}
+
+}  // namespace
+}  // namespace rs
