@@ -1,9 +1,11 @@
 #include "eval/damage/crack_folder_eval.h"
 
+#include "formats/image_file.h"
 #include "formats/input_error.h"
 #include "stages/damage/cracks/cracks.h"
 
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -32,10 +34,22 @@ cv::Mat ReadOrThrow(const fs::path& path, int flags) {
   return m;
 }
 
+// The image, the truth over it (green) and the detection over it (magenta), side by side.
+void WriteDebug(const fs::path& path, const cv::Mat& image, const cv::Mat& mask, const CrackDetection& d) {
+  cv::Mat truth = image.clone(), detected = image.clone();
+  truth.setTo(cv::Scalar(0, 255, 0), mask >= 128);
+  detected.setTo(cv::Scalar(255, 0, 255), d.labels != 0);
+  cv::Mat row;
+  cv::hconcat(std::vector<cv::Mat>{image, truth, detected}, row);
+  if (row.cols > 2400) cv::resize(row, row, {}, 2400.0 / row.cols, 2400.0 / row.cols, cv::INTER_AREA);
+  fs::create_directories(path.parent_path());
+  WriteImageFile(path, row);
+}
+
 }  // namespace
 
 CrackFolderEvaluation EvaluateCrackFolder(const fs::path& dir, const CrackOptions& options, double tolerance_px,
-                                          int max_images) {
+                                          int max_images, const fs::path& debug_dir) {
   std::vector<std::string> names = PairedNames(dir);
   if (max_images > 0 && int(names.size()) > max_images) {
     const size_t step = (names.size() + max_images - 1) / max_images;
@@ -56,6 +70,7 @@ CrackFolderEvaluation EvaluateCrackFolder(const fs::path& dir, const CrackOption
     r.name = names[i];
     r.cracks = int(d.instances.size());
     r.score = ScoreCrackPixels(d.labels != 0, mask >= 128, tolerance_px);
+    if (!debug_dir.empty()) WriteDebug(debug_dir / (fs::path(names[i]).stem().string() + ".png"), image, mask, d);
   });
   for (const CrackFolderImage& r : out.images) {
     out.overall += r.score;

@@ -29,7 +29,10 @@ struct CrackFolderEvaluation {
 /// value ≥ 128: the masks may be lossy JPEG). Images are read as colour and searched whole;
 /// `max_images` > 0 takes every n-th pair so that at most that many are scored. Throws
 /// InputError for a missing folder, an unreadable image or a mask of another size.
+/// `debug_dir` (non-empty): writes NAME.png per image: the image, the truth (green) and the
+/// detection (magenta) side by side.
 CrackFolderEvaluation EvaluateCrackFolder(const std::filesystem::path& dir, const CrackOptions& options,
-                                          double tolerance_px, int max_images = 0);
+                                          double tolerance_px, int max_images = 0,
+                                          const std::filesystem::path& debug_dir = {});
 
 }  // namespace rs

@@ -27,15 +27,17 @@ CrackOptions OptionsFromEnv() {
 
 void Print(const char* what, const CrackFolderEvaluation& e) {
   const TolerantPixelScore& s = e.overall;
-  std::printf("%s: %zu images, P %.3f R %.3f F1 %.3f, %d without a crack detected\n", what, e.images.size(),
-              s.Precision(), s.Recall(), s.F1(), e.images_without_crack);
+  std::printf("%s: %zu images, P %.3f R %.3f F1 %.3f, %d without a crack detected, %lld px detected\n",
+              what, e.images.size(), s.Precision(), s.Recall(), s.F1(), e.images_without_crack, s.predicted);
 }
 
 TEST(CrackFolderEval, Benchmark) {
   const char* dir = std::getenv("ROADSURVEY_CRACK_EVAL_DIR");
   if (!dir || !*dir) GTEST_SKIP() << "set ROADSURVEY_CRACK_EVAL_DIR to a folder with images/ and masks/";
   const char* max = std::getenv("ROADSURVEY_CRACK_EVAL_MAX");
-  const CrackFolderEvaluation e = EvaluateCrackFolder(dir, OptionsFromEnv(), 2.0, max ? std::atoi(max) : 0);
+  const char* debug = std::getenv("ROADSURVEY_CRACK_EVAL_DEBUG");
+  const CrackFolderEvaluation e =
+      EvaluateCrackFolder(dir, OptionsFromEnv(), 2.0, max ? std::atoi(max) : 0, debug ? debug : "");
   if (std::getenv("ROADSURVEY_CRACK_EVAL_VERBOSE"))
     for (const auto& r : e.images)
       std::printf("%-32s P %.3f R %.3f F1 %.3f cracks %d\n", r.name.c_str(), r.score.Precision(), r.score.Recall(),
