@@ -118,7 +118,7 @@ cv::Mat MeaningfulComponents(const cv::Mat& mask, const cv::Mat& best_sigma, dou
     if (sigmas[i].empty()) continue;
     const double length = double(sigmas[i].size());  // skeleton pixels ≈ length
     const double sigma = LowerMedianInPlace(sigmas[i]);
-    keep[i] = length / sigma > samples_needed;
+    keep[i] = length / (2 * sigma) > samples_needed;
   }
   for (int v = 0; v < mask.rows; ++v)
     for (int u = 0; u < mask.cols; ++u)
