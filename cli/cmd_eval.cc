@@ -1,4 +1,4 @@
-// roadsurvey eval disparity|damage|trajectory: the stages' evaluation code on plain files
+// roadsurvey eval disparity|damage|cracks|trajectory: the stages' evaluation code on plain files
 // (estimate first, truth second), a table for people and --json for machines.
 #include <fmt/format.h>
 
@@ -16,6 +16,8 @@
 #include "formats/geojson/geojson.h"
 #include "formats/input_error.h"
 #include "formats/trajectory/trajectory_file.h"
+#include "eval/damage/crack_folder_eval.h"
+#include "eval/damage/crack_score.h"
 #include "eval/damage/damage_eval.h"
 #include "eval/damage/pothole_scan_eval.h"
 #include "eval/damage/sim_damage_eval.h"
@@ -180,7 +182,14 @@ struct DamageArgs {
   std::string labels, truth_masks, detections, truth, json;
   bool components = false;
   double min_iou = 0.5;
+  double tolerance_px = -1;  ///< crack scoring: predicted/true pixels within this distance count (< 0 = off)
 };
+
+nlohmann::json ToJson(const TolerantPixelScore& s, double tolerance_px) {
+  return {{"tolerance_px", tolerance_px},    {"predicted", s.predicted}, {"predicted_near", s.predicted_near},
+          {"truth", s.truth},                {"truth_near", s.truth_near}, {"precision", s.Precision()},
+          {"recall", s.Recall()},            {"f1", s.F1()}};
+}
 
 /// Count, mean signed error (bias) and mean absolute error of finite values.
 struct ErrorSummary {
@@ -202,6 +211,8 @@ int RunEvalDamage(const DamageArgs& a) {
   PixelMetrics pooled;
   int predicted = 0, truth_n = 0, tp = 0;
   ErrorSummary area, depth, volume;
+  TolerantPixelScore tolerant_total;
+  std::string tolerant_table = fmt::format("{:<24} {:>9} {:>7} {:>7}\n", "file", "precision", "recall", "F1");
   nlohmann::json files = nlohmann::json::array();
   std::string table = fmt::format("{:<24} {:>9} {:>7} {:>7} {:>7} {:>5} {:>5} {:>4} {:>4} {:>4}\n", "file", "precision",
                                   "recall", "F1", "IoU", "pred", "truth", "TP", "FP", "FN");
@@ -217,6 +228,13 @@ int RunEvalDamage(const DamageArgs& a) {
     }
     const PixelMetrics px = ComparePixels(pred != 0, gt != 0);
     pooled.Add(px);
+    TolerantPixelScore tolerant;
+    if (a.tolerance_px >= 0) {
+      tolerant = ScoreCrackPixels(pred != 0, gt != 0, a.tolerance_px);
+      tolerant_total += tolerant;
+      tolerant_table += fmt::format("{:<24} {:>9.3f} {:>7.3f} {:>7.3f}\n", p.name, tolerant.Precision(),
+                                    tolerant.Recall(), tolerant.F1());
+    }
     const InstanceEvaluation inst = MatchInstances(pred, gt, dets, truth, a.min_iou);
     predicted += inst.predicted, truth_n += inst.truth, tp += int(inst.matches.size());
     nlohmann::json matches = nlohmann::json::array();
@@ -248,6 +266,7 @@ int RunEvalDamage(const DamageArgs& a) {
                        {"false_positives", inst.false_positives},
                        {"false_negatives", inst.false_negatives},
                        {"matches", matches}}}});
+    if (a.tolerance_px >= 0) files.back()["crack_pixels"] = ToJson(tolerant, a.tolerance_px);
   }
   pooled.Finish();
   const double ip = predicted ? double(tp) / predicted : 0, ir = truth_n ? double(tp) / truth_n : 0;
@@ -266,6 +285,11 @@ int RunEvalDamage(const DamageArgs& a) {
     return fmt::format("  {:<10} bias {:+.4g} {}, mean |error| {:.4g} {} over {} matches\n", what, s.bias / s.n * unit,
                        u, s.mae / s.n * unit, u, s.n);
   };
+  if (a.json != "-" && a.tolerance_px >= 0)
+    fmt::print("crack pixels within {} px (precision: predicted pixels near a true one; recall: true pixels near a "
+               "predicted one):\n{}{:<24} {:>9.3f} {:>7.3f} {:>7.3f}\n",
+               a.tolerance_px, tolerant_table, fmt::format("TOTAL ({} files)", pairs.size()),
+               tolerant_total.Precision(), tolerant_total.Recall(), tolerant_total.F1());
   if (a.json != "-" && (!a.detections.empty() || !a.truth.empty()))
     fmt::print("measurement errors (predicted - truth):\n{}{}{}", line("area", area, 1e4, "cm2"),
                line("max depth", depth, 1e3, "mm"), line("volume", volume, 1e6, "cm3"));
@@ -289,9 +313,48 @@ int RunEvalDamage(const DamageArgs& a) {
                             {"area_error_m2", area.Json()},
                             {"max_depth_error_m", depth.Json()},
                             {"volume_error_m3", volume.Json()}};
+    if (a.tolerance_px >= 0) total["crack_pixels"] = ToJson(tolerant_total, a.tolerance_px);
     WriteTextOutput(
         a.json,
         nlohmann::json{{"schema", "roadsurvey.eval_damage/1"}, {"files", files}, {"total", total}}.dump(2) + "\n");
+  }
+  return kExitOk;
+}
+
+// ---------------------------------------------------------------- cracks (images + masks)
+
+struct CracksArgs {
+  std::string dir, json, debug;
+  double tolerance_px = 2;
+  int max_images = 0;
+};
+
+int RunEvalCracks(const CracksArgs& a) {
+  const CrackFolderEvaluation e = EvaluateCrackFolder(a.dir, CrackOptions(), a.tolerance_px, a.max_images, a.debug);
+  nlohmann::json images = nlohmann::json::array();
+  std::string table = fmt::format("{:<32} {:>9} {:>7} {:>7} {:>6}\n", "image", "precision", "recall", "F1", "cracks");
+  for (const CrackFolderImage& r : e.images) {
+    table += fmt::format("{:<32} {:>9.3f} {:>7.3f} {:>7.3f} {:>6}\n", r.name, r.score.Precision(), r.score.Recall(),
+                         r.score.F1(), r.cracks);
+    nlohmann::json j = ToJson(r.score, a.tolerance_px);
+    j["name"] = r.name;
+    j["cracks"] = r.cracks;
+    images.push_back(j);
+  }
+  table += fmt::format("{:<32} {:>9.3f} {:>7.3f} {:>7.3f}\n", fmt::format("TOTAL ({} images)", e.images.size()),
+                       e.overall.Precision(), e.overall.Recall(), e.overall.F1());
+  if (a.json != "-")
+    fmt::print("{}crack pixels within {} px, pooled over the images; {} of {} images without a detected crack, {} "
+               "without a true crack pixel\n",
+               table, a.tolerance_px, e.images_without_crack, e.images.size(), e.images_without_truth);
+  if (!a.json.empty()) {
+    nlohmann::json total = ToJson(e.overall, a.tolerance_px);
+    total["images"] = e.images.size();
+    total["images_without_crack"] = e.images_without_crack;
+    total["images_without_truth"] = e.images_without_truth;
+    WriteTextOutput(a.json,
+                    nlohmann::json{{"schema", "roadsurvey.eval_cracks/1"}, {"images", images}, {"total", total}}.dump(2) +
+                        "\n");
   }
   return kExitOk;
 }
@@ -466,6 +529,20 @@ Command EvalCommand() {
         dmg->add_option("--min-iou", g->min_iou, "IoU a predicted and a truth instance need to match")
             ->check(CLI::Range(0.01, 1.0));
         dmg->add_option("--json", g->json, "write the metrics as JSON ('-' = stdout)");
+        dmg->add_option("--tolerance-px", g->tolerance_px,
+                        "also score crack pixels: predicted and true pixels within this distance count (e.g. 2)")
+            ->check(CLI::NonNegativeNumber);
+
+        auto c = std::make_shared<CracksArgs>();
+        CLI::App* crk = app.add_subcommand(
+            "cracks", "crack detection (pixel units) on a folder of images/ and masks/: precision, recall, F1");
+        crk->add_option("dir", c->dir, "folder with images/NAME and masks/NAME (crack = mask grey >= 128)")->required();
+        crk->add_option("--tolerance-px", c->tolerance_px, "predicted and true pixels within this distance count")
+            ->check(CLI::NonNegativeNumber);
+        crk->add_option("--max-images", c->max_images, "score every n-th pair, at most this many (0 = all)")
+            ->check(CLI::NonNegativeNumber);
+        crk->add_option("--debug", c->debug, "write image | truth (green) | detection (magenta) PNGs to this folder");
+        crk->add_option("--json", c->json, "write the metrics as JSON ('-' = stdout)");
 
         auto t = std::make_shared<TrajectoryArgs>();
         CLI::App* traj = app.add_subcommand("trajectory", "estimated vs truth trajectory: ATE, RDE, RPE, KITTI errors");
@@ -530,6 +607,7 @@ Command EvalCommand() {
           if (disp->parsed()) return RunEvalDisparity(*d);
           if (georef->parsed()) return RunEvalGeoreference(*geo);
           if (dmg->parsed()) return RunEvalDamage(*g);
+          if (crk->parsed()) return RunEvalCracks(*c);
           return RunEvalTrajectory(*t);
         };
       }};

@@ -20,6 +20,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "formats/flight_log/track_csv.h"
 #include "formats/stereo/calibration_yaml.h"
@@ -390,6 +391,56 @@ TEST_F(CliTools, EvalDamageMeasurements) {
   // A detections file that is not JSON is bad input.
   std::ofstream(P("det/f1.json")) << "{\"detections\": [";
   EXPECT_EQ(Roadsurvey(fmt::format("eval damage {} {} --detections {}", P("pred"), P("truth"), P("det"))).code, 2);
+}
+
+// Crack scoring with a tolerance: a one-pixel line 2 px from the truth counts whole, one 3 px away
+// not at all; counts exact.
+TEST_F(CliTools, EvalDamageCrackTolerance) {
+  fs::create_directories(dir_ / "cp"), fs::create_directories(dir_ / "ct");
+  cv::Mat truth = cv::Mat::zeros(40, 60, CV_16U), near = truth.clone(), far = truth.clone();
+  truth(cv::Range(20, 21), cv::Range(10, 50)).setTo(1);
+  near(cv::Range(22, 23), cv::Range(10, 50)).setTo(1);
+  far(cv::Range(23, 24), cv::Range(10, 50)).setTo(1);
+  ASSERT_TRUE(cv::imwrite(P("cp/a.png"), near) && cv::imwrite(P("ct/a.png"), truth));
+  ASSERT_TRUE(cv::imwrite(P("cp/b.png"), far) && cv::imwrite(P("ct/b.png"), truth));
+  const RunResult r =
+      Roadsurvey(fmt::format("eval damage {} {} --tolerance-px 2 --json {}", P("cp"), P("ct"), P("t.json")));
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("crack pixels within 2 px"), std::string::npos) << r.output;
+  std::ifstream in(P("t.json"));
+  const nlohmann::json j = nlohmann::json::parse(in);
+  const nlohmann::json& c = j["total"]["crack_pixels"];
+  EXPECT_EQ(c["predicted"].get<int64_t>(), 80);
+  EXPECT_EQ(c["predicted_near"].get<int64_t>(), 40);
+  EXPECT_EQ(c["truth"].get<int64_t>(), 80);
+  EXPECT_EQ(c["truth_near"].get<int64_t>(), 40);
+  EXPECT_DOUBLE_EQ(c["f1"].get<double>(), 0.5);
+  EXPECT_DOUBLE_EQ(j["files"][0]["crack_pixels"]["f1"].get<double>(), 1.0);
+  EXPECT_DOUBLE_EQ(j["files"][1]["crack_pixels"]["f1"].get<double>(), 0.0);
+}
+
+// eval cracks on a folder: one textured image with a dark 5 px line and its mask; the line is
+// found (precision and recall ≥ 0.9 at 2 px); a folder without masks/ is bad input.
+TEST_F(CliTools, EvalCracksFolder) {
+  fs::create_directories(dir_ / "cf/images"), fs::create_directories(dir_ / "cf/masks");
+  cv::Mat noise(240, 320, CV_32F), img, mask = cv::Mat::zeros(240, 320, CV_8U);
+  cv::RNG rng(11);
+  rng.fill(noise, cv::RNG::NORMAL, 128, 10);
+  noise.convertTo(img, CV_8U);
+  cv::line(img, {30, 40}, {290, 200}, cv::Scalar(60), 5);
+  cv::line(mask, {30, 40}, {290, 200}, cv::Scalar(255), 5);
+  ASSERT_TRUE(cv::imwrite(P("cf/images/x.png"), img) && cv::imwrite(P("cf/masks/x.png"), mask));
+  const RunResult r = Roadsurvey(fmt::format("eval cracks {} --json {}", P("cf"), P("c.json")));
+  ASSERT_EQ(r.code, 0) << r.output;
+  std::ifstream in(P("c.json"));
+  const nlohmann::json j = nlohmann::json::parse(in);
+  EXPECT_EQ(j["total"]["images"].get<int>(), 1);
+  EXPECT_EQ(j["total"]["images_without_crack"].get<int>(), 0);
+  EXPECT_GE(j["total"]["precision"].get<double>(), 0.9) << r.output;
+  EXPECT_GE(j["total"]["recall"].get<double>(), 0.9) << r.output;
+  EXPECT_EQ(j["images"][0]["truth"].get<int64_t>(), cv::countNonZero(mask));
+  fs::remove_all(dir_ / "cf/masks");
+  EXPECT_EQ(Roadsurvey(fmt::format("eval cracks {}", P("cf"))).code, 2);
 }
 
 TEST_F(CliTools, EvalDamageRealLabels) {

@@ -162,6 +162,10 @@ void CrackOptions::Check() const {
   Require(min_elongation >= 1, "min_elongation", min_elongation, ">=", "1", 1);
   Require(max_width_m > 0, "max_width_m", max_width_m, ">", "0", 0);
   Require(min_length_px >= 2, "min_length_px", min_length_px, ">=", "2", 2);
+  Require(ridge_max_sigma_px >= ridge_min_sigma_px, "ridge_max_sigma_px", ridge_max_sigma_px, ">=",
+          "ridge_min_sigma_px", ridge_min_sigma_px);
+  Require(ridge_high_sigma >= ridge_low_sigma, "ridge_high_sigma", ridge_high_sigma, ">=", "ridge_low_sigma",
+          ridge_low_sigma);
 }
 
 const OptionTable<CrackOptions>& CrackOptions::Table() {
@@ -169,6 +173,21 @@ const OptionTable<CrackOptions>& CrackOptions::Table() {
   static const auto table =
       OptionTable<O>()
           .Add("enabled", &O::enabled, "look for cracks")
+          .AddEnum("detector", &O::detector, {{"ridge", O::Detector::kRidge}, {"blackhat", O::Detector::kBlackHat}},
+                   "crack evidence: multi-scale Hessian ridge with hysteresis, or morphological black-hat")
+          .Add("ridge_min_sigma_px", &O::ridge_min_sigma_px, "smallest ridge scale without calibration (Gaussian σ)",
+               "px")
+          .Above(0)
+          .Add("ridge_max_sigma_px", &O::ridge_max_sigma_px, "largest ridge scale without calibration (Gaussian σ)",
+               "px")
+          .Above(0)
+          .Add("ridge_high_sigma", &O::ridge_high_sigma, "ridge hysteresis seed level, robust σ of the texture")
+          .Above(0)
+          .Add("ridge_low_sigma", &O::ridge_low_sigma, "ridge hysteresis growth level, robust σ of the texture")
+          .Above(0)
+          .Add("ridge_width_factor", &O::ridge_width_factor,
+               "crack region: within this many ridge scales of the centreline, down to half its darkness")
+          .Above(0)
           .Add("min_scale_px", &O::min_scale_px, "smallest black-hat element (odd)", "px")
           .Min(3)
           .Add("max_scale_px", &O::max_scale_px, "largest black-hat element (odd)", "px")

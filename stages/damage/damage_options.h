@@ -89,6 +89,21 @@ struct SegmentOptions {
 /// Thin dark ridges (cracks) in the left image.
 struct CrackOptions {
   bool enabled = true;    ///< look for cracks at all
+  /// Crack evidence: kRidge = multi-scale Hessian valley less the gradient, each scale in robust
+  /// σ of its own texture, with hysteresis (ridge.h); kBlackHat = morphological black-hat with a
+  /// local level and oriented line support.
+  enum class Detector { kRidge, kBlackHat };
+  Detector detector = Detector::kRidge;
+  /// Ridge scales without calibration: Gaussian σ from min to max in steps of √2; a dark line
+  /// w px wide responds most at σ ≈ w/2 (2σ of the valley's curvature matches its width), px.
+  double ridge_min_sigma_px = 1.0;
+  double ridge_max_sigma_px = 16.0;
+  double ridge_high_sigma = 3.0;  ///< hysteresis seed: ridge strength in robust σ of the texture
+  double ridge_low_sigma = 2.5;   ///< hysteresis growth: ridge strength in robust σ
+  /// The crack region: pixels within ridge_width_factor × (the ridge's best scale) of the
+  /// centreline whose darkness below the background (median over 4 × the largest scale)
+  /// reaches half the centreline's (full width at half depth).
+  double ridge_width_factor = 1.5;
   int min_scale_px = 5;   ///< smallest black-hat structuring element, px (odd)
   int max_scale_px = 15;  ///< largest black-hat structuring element, px (odd)
   /// With pixel sizes on the road (calibrated): the black-hat element spans this much road

@@ -1,5 +1,6 @@
 #include "stages/damage/cracks/cracks.h"
 
+#include "stages/damage/cracks/ridge.h"
 #include "stages/damage/measure/measure.h"
 #include "survey/stats/order_statistic.h"
 #include "survey/stats/robust_stats.h"
@@ -281,7 +282,19 @@ CrackDetection DetectCracks(const cv::Mat& image, const cv::Mat& road_mask, cons
   const cv::Mat level_med = LevelMap(grid, 1, 0, image.size()), level_sigma = LevelMap(grid, 0, 1, image.size());
 
   cv::Mat cand;
-  if (o.line_length_px > 0) {
+  if (o.detector == CrackOptions::Detector::kRidge && pixel_size_m.empty()) {
+    std::vector<double> sigmas;
+    for (double s = o.ridge_min_sigma_px; s <= o.ridge_max_sigma_px * 1.001; s *= std::sqrt(2.0)) sigmas.push_back(s);
+    cv::Mat best_sigma;
+    const cv::Mat strength = RidgeStrength(Grey(image), search, sigmas, &best_sigma);
+    const int window = 2 * int(std::lround(2 * sigmas.back())) + 1;
+    const double searched = cv::countNonZero(search);
+    const double p_low = cv::countNonZero((strength > o.ridge_low_sigma) & search) / std::max(1.0, searched);
+    const cv::Mat seeded = Hysteresis(strength, search, o.ridge_low_sigma, o.ridge_high_sigma);
+    cand = CrackRegion(MeaningfulComponents(seeded, best_sigma, p_low, searched), best_sigma,
+                       Darkness(Grey(image), window), o.ridge_width_factor) &
+           search;
+  } else if (o.line_length_px > 0) {
     // Pixels darker than their surroundings (response above the local median + 1 σ) where the
     // line support stands out (its own local level + k σ).
     const cv::Mat support = LineSupport(response, o.line_length_px);

@@ -56,6 +56,25 @@ TEST(DetectCracks, ExcludedAndOffRoad) {
                std::invalid_argument);
 }
 
+// Without calibration (ridge detector, pixel units): a dark line 3 px wide and one 15 px wide
+// on textured asphalt are found, each as one crack whose region spans the line: region area /
+// line length between the drawn width and 4 px more (measured +2.5 and +2.8 px: the half-depth
+// test admits the texture's dark pixels beside the line, σ 12 grey levels against a 58 deep
+// line); the texture alone gives nothing.
+TEST(DetectCracks, RidgeInPixelUnits) {
+  EXPECT_TRUE(DetectCracks(Asphalt(4), cv::Mat(), cv::Mat(), cv::Mat(), CrackOptions()).instances.empty());
+  for (const int width : {3, 15}) {
+    cv::Mat img = Asphalt(5);
+    const cv::Point a(80, 120), b(560, 360);
+    cv::line(img, a, b, cv::Scalar(70), width, cv::LINE_AA);
+    const CrackDetection c = DetectCracks(img, cv::Mat(), cv::Mat(), cv::Mat(), CrackOptions());
+    ASSERT_EQ(c.instances.size(), 1u) << width;
+    const double mean_width = cv::countNonZero(c.labels) / cv::norm(b - a);
+    EXPECT_GE(mean_width, width) << width;
+    EXPECT_LE(mean_width, width + 4.0) << width;
+  }
+}
+
 // A road seen obliquely: pixel size 8 mm at the top row to 2 mm at the bottom (4×, as a car
 // camera from 10 to 2.5 m). Coarse aggregate (bright 8 mm stones, 12 mm apart, on dark binder)
 // is resolved at the bottom and blurred into grey at the top; one 10 mm crack crosses it.
