@@ -51,7 +51,8 @@ std::string ColmapMissing(const std::string& program) {
       program, program);
 }
 
-void PassThrough(StageContext& ctx, const fs::path& slam_dir) {
+// `why` goes into the manifest's warnings; refine.json says whether refinement was enabled.
+void PassThrough(StageContext& ctx, const fs::path& slam_dir, bool enabled, const std::string& why) {
   // Checked first (a bad trajectory fails here as it would in a refinement), then copied byte for byte.
   ReadTumTrajectory(slam_dir / "trajectory.tum");
   std::ifstream in(slam_dir / "trajectory.tum", std::ios::binary);
@@ -59,8 +60,8 @@ void PassThrough(StageContext& ctx, const fs::path& slam_dir) {
   WriteFileChecked(ctx.out_dir() / "trajectory_refined.tum", bytes);
   WriteSlamMap(ctx.out_dir() / "map", ReadSlamMap(slam_dir / "map"));
   ctx.summary().counts["refined"] = false;
-  ctx.Warn("refine.enabled = false: the SLAM trajectory and map are passed through unchanged");
-  WriteJsonAtomic(ctx.out_dir() / "refine.json", {{"enabled", false}});
+  ctx.Warn(why + ": the SLAM trajectory and map are passed through unchanged");
+  WriteJsonAtomic(ctx.out_dir() / "refine.json", {{"enabled", enabled}, {"refined", false}, {"reason", why}});
 }
 
 }  // namespace
@@ -115,7 +116,7 @@ void RefineStage::ValidateInputs(const SurveyFile&, const RefineOptions& o, Vali
 
 void RefineStage::Run(StageContext& ctx, const RefineOptions& o) const {
   const fs::path slam_dir = ctx.input_dir("map");
-  if (!o.enabled) return PassThrough(ctx, slam_dir);
+  if (!o.enabled) return PassThrough(ctx, slam_dir, false, "refine.enabled = false");
   const auto program = FindProgram(o.colmap_program);
   if (!program) throw InputError(InputLocation::File(o.colmap_program), ColmapMissing(o.colmap_program));
 
@@ -124,6 +125,11 @@ void RefineStage::Run(StageContext& ctx, const RefineOptions& o) const {
   const Trajectory slam_trajectory = ReadTumTrajectory(ctx.input_dir("trajectory") / "trajectory.tum");
   const auto frames = ReadFrameIndex(ctx.input_dir("frames") / "frames.csv");
   const ColmapExport exported = ExportToColmap(map, FrameIdsOfKeyframes(map, frames, slam_dir / "map"), o.selection);
+  // A bundle adjustment needs points seen from two keyframes (COLMAP aborts on an empty rig).
+  if (exported.counts.points_kept == 0)
+    return PassThrough(ctx, slam_dir, true,
+                       fmt::format("nothing to adjust: no map point is seen by {} keyframes ({} keyframes in the map)",
+                                   o.selection.min_keyframes, map.keyframes.size()));
   const fs::path in_dir = ctx.out_dir() / "colmap_input", ba_dir = ctx.out_dir() / "colmap_ba";
   WriteColmapModel(in_dir, exported.problem, ColmapFormat::kBinary);
   WriteFileChecked(ctx.out_dir() / "rig_config.json", ColmapRigConfigJson(exported.problem_rigs));
