@@ -1,6 +1,7 @@
 // The stages this program runs, in pipeline order.
 #include "cli/command.h"
 #include "stages/damage/damage_stage.h"
+#include "stages/damage_map/damage_map_stage.h"
 #include "stages/disparity/disparity_stage.h"
 #include "stages/georeference/georeference_stage.h"
 #include "stages/ingest/ingest_stage.h"
@@ -17,6 +18,7 @@ void RegisterBuiltinStages(StageRegistry& registry) {
   registry.Add(std::make_unique<SlamStage>());
   registry.Add(std::make_unique<RefineStage>());
   registry.Add(std::make_unique<GeoreferenceStage>());
+  registry.Add(std::make_unique<DamageMapStage>());
 }
 
 }  // namespace rs

@@ -1,5 +1,5 @@
-// roadsurvey eval disparity|damage|cracks|trajectory: the stages' evaluation code on plain files
-// (estimate first, truth second), a table for people and --json for machines.
+// roadsurvey eval disparity|damage|cracks|trajectory|georeference|damage-sim|damage-map|pothole-scan: the stages'
+// evaluation code on plain files (estimate first, truth second), a table for people and --json for machines.
 #include <fmt/format.h>
 
 #include <cmath>
@@ -21,6 +21,7 @@
 #include "eval/damage/damage_eval.h"
 #include "eval/damage/pothole_scan_eval.h"
 #include "eval/damage/sim_damage_eval.h"
+#include "eval/damage_map/damage_map_eval.h"
 #include "eval/disparity/disparity_eval.h"
 #include "eval/georeference/georeference_eval.h"
 #include "formats/disparity/disparity_io.h"
@@ -463,6 +464,23 @@ int RunEvalSimulatedDamage(const SimDamageArgs& a) {
   return kExitOk;
 }
 
+// ---------------------------------------------------------------- damage map of a simulated survey
+
+struct DamageMapArgs {
+  std::string survey_dir, output, json;
+  DamageMapEvalOptions options;
+  double depth_tolerance_mm = 10;
+};
+
+int RunEvalDamageMap(DamageMapArgs a) {
+  a.options.depth_tolerance_m = a.depth_tolerance_mm / 1000;
+  CheckAsOption([&] { a.options.Check(); });
+  const DamageMapEvaluation e = EvaluateDamageMap(a.survey_dir, a.output, a.options);
+  if (a.json != "-") fmt::print("{}", e.Table());
+  if (!a.json.empty()) WriteTextOutput(a.json, e.ToJson().dump(2) + "\n");
+  return kExitOk;
+}
+
 struct PotholeScanArgs {
   std::string dir;
   std::vector<int> pairs = {1, 3, 4, 5};
@@ -503,7 +521,9 @@ int RunEvalPotholeScan(const PotholeScanArgs& a) {
 
 Command EvalCommand() {
   return {
-      "eval", "Evaluate results against ground truth: disparity maps, damage labels, trajectories, georeferencing, potholes vs laser scans",
+      "eval",
+      "Evaluate results against ground truth: disparity maps, damage labels, damage maps, trajectories, "
+      "georeferencing, potholes vs laser scans",
       [](CLI::App& app, const StageRegistry&) -> std::function<int()> {
         app.option_defaults()->always_capture_default();
         app.require_subcommand(1);
@@ -587,6 +607,40 @@ Command EvalCommand() {
         sim->add_option("--min-diameter", sd->min_diameter_m, "truth potholes at least this wide are scored, m")
             ->check(CLI::PositiveNumber);
 
+        auto dm = std::make_shared<DamageMapArgs>();
+        CLI::App* dmap = app.add_subcommand(
+            "damage-map", "a simulated survey's damage.geojson (after `roadsurvey run`) vs the simulator's truth");
+        dmap->add_option("survey", dm->survey_dir, "folder written by `roadsurvey simulate`")->required();
+        dmap->add_option("--output", dm->output, "the run's output folder (default: survey.json's \"output\")");
+        dmap->add_option("--json", dm->json, "write the evaluation as JSON ('-' = stdout)");
+        dmap->add_option("--min-pothole-diameter", dm->options.min_pothole_diameter_m,
+                         "truth potholes at least this wide (mean_diameter_m) are scored, m")
+            ->check(CLI::NonNegativeNumber);
+        dmap->add_option("--min-overlap", dm->options.min_overlap,
+                         "pothole match: intersection / min(area predicted, area truth) on the road plane")
+            ->check(CLI::Range(0.01, 1.0));
+        dmap->add_option("--min-crack-length", dm->options.min_crack_length_m,
+                         "truth cracks at least this long (length_m) are scored, m")
+            ->check(CLI::NonNegativeNumber);
+        dmap->add_option("--crack-tolerance", dm->options.crack_tolerance_m,
+                         "a true crack point is covered within this distance of a predicted crack line, m")
+            ->check(CLI::PositiveNumber);
+        dmap->add_option("--min-crack-coverage", dm->options.min_crack_coverage,
+                         "crack match: share of the true line covered")
+            ->check(CLI::Range(0.01, 1.0));
+        dmap->add_option("--min-pixels", dm->options.min_seen_pixels,
+                         "a truth damage is seen whole in a frame with at least this many mask pixels...")
+            ->check(CLI::PositiveNumber);
+        dmap->add_option("--border-px", dm->options.border_px, "... none of them in the image's outer N px")
+            ->check(CLI::NonNegativeNumber);
+        dmap->add_option("--depth-tolerance", dm->depth_tolerance_mm, "summary tolerance of |max depth error|, mm")
+            ->check(CLI::PositiveNumber);
+        dmap->add_option("--area-tolerance", dm->options.area_tolerance_pct, "summary tolerance of |area error|, %")
+            ->check(CLI::PositiveNumber);
+        dmap->add_option("--volume-tolerance", dm->options.volume_tolerance_pct,
+                         "summary tolerance of |volume error|, %")
+            ->check(CLI::PositiveNumber);
+
         auto ps = std::make_shared<PotholeScanArgs>();
         CLI::App* scan = app.add_subcommand(
             "pothole-scan",
@@ -604,6 +658,7 @@ Command EvalCommand() {
         return [=] {
           if (scan->parsed()) return RunEvalPotholeScan(*ps);
           if (sim->parsed()) return RunEvalSimulatedDamage(*sd);
+          if (dmap->parsed()) return RunEvalDamageMap(*dm);
           if (disp->parsed()) return RunEvalDisparity(*d);
           if (georef->parsed()) return RunEvalGeoreference(*geo);
           if (dmg->parsed()) return RunEvalDamage(*g);

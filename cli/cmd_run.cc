@@ -51,6 +51,8 @@ Command RunCommand() {
                 fmt::print("{:<12} {:<13} {:>9.2f} {:>9} {:>7} {:>8}\n", r.name, ToString(r.status), r.wall_s,
                            r.summary.frames_computed, r.summary.frames_reused, r.summary.frames_skipped);
                 PrintSkippedFrames(r.summary.ToJson()["frames"]["skipped_frames"]);
+                if (r.summary.counts.contains("headline") && r.summary.counts["headline"].is_string())
+                  fmt::print("    {}\n", r.summary.counts["headline"].get<std::string>());
                 if (!r.error.empty()) fmt::print("    error: {}\n", r.error);
               }
               if (!report.error.empty()) fmt::print("error: {}\n", report.error);

@@ -4,6 +4,7 @@
 // Checked once where they enter (the stage's options, DetectDamage's callers,
 // SegmentTransformedDisparity): the per-frame and per-instance functions take them checked.
 
+#include "survey/grading/severity_rules.h"
 #include "survey/options.h"
 
 namespace rs {
@@ -178,27 +179,5 @@ struct MeasureOptions {
   static const OptionTable<MeasureOptions>& Table();
 };
 
-/// Severity tables and intervention thresholds. Defaults: ASTM D6433 and FHWA
-/// LTPP as in MISSION.md; intervention: UK 40 mm depth and 300 mm width.
-struct SeverityOptions {
-  double astm_depth_low_m = 0.013;  ///< ASTM depth bins: (13, 25], (25, 50], > 50 mm
-  double astm_depth_mid_m = 0.025;
-  double astm_depth_high_m = 0.050;
-  double astm_diameter_min_m = 0.100;  ///< ASTM diameter bins: [100, 200], (200, 450], (450, 750] mm
-  double astm_diameter_mid1_m = 0.200;
-  double astm_diameter_mid2_m = 0.450;
-  double astm_diameter_max_m = 0.750;  ///< wider: counted as area / astm_equivalent_area_m2 potholes
-  double astm_equivalent_area_m2 = 0.5;
-  double fhwa_pothole_min_diameter_m = 0.150;  ///< FHWA: smaller depressions are not potholes
-  double fhwa_pothole_low_m = 0.025;           ///< FHWA pothole depth: low ≤ 25, moderate ≤ 50, high > 50 mm
-  double fhwa_pothole_mid_m = 0.050;
-  double fhwa_crack_low_m = 0.006;  ///< FHWA crack width: low ≤ 6, moderate ≤ 19, high > 19 mm
-  double fhwa_crack_mid_m = 0.019;
-  double intervention_depth_m = 0.040;        ///< potholes at least this deep ...
-  double intervention_width_m = 0.300;        ///< ... and at least this wide need intervention
-  double intervention_crack_width_m = 0.019;  ///< cracks at least this wide need intervention
-  void Check() const;
-  static const OptionTable<SeverityOptions>& Table();
-};
 
 }  // namespace rs

@@ -11,14 +11,4 @@ const char* DamageTypeName(DamageType type) {
   return "other";
 }
 
-const char* SeverityLevelName(SeverityLevel level) {
-  switch (level) {
-    case SeverityLevel::kNone: return "none";
-    case SeverityLevel::kLow: return "low";
-    case SeverityLevel::kMedium: return "medium";
-    case SeverityLevel::kHigh: return "high";
-  }
-  return "none";
-}
-
 }  // namespace rs

@@ -5,6 +5,7 @@
 #include <opencv2/core.hpp>
 
 #include "formats/rectified_stereo.h"
+#include "survey/grading/severity_rules.h"
 
 #include <limits>
 #include <string>
@@ -19,19 +20,6 @@ inline constexpr double kUnknown = std::numeric_limits<double>::quiet_NaN();
 enum class DamageType { kPothole, kCrack, kOther };
 /// "pothole", "crack", "other".
 const char* DamageTypeName(DamageType type);
-
-/// A severity level; kNone = below the table's smallest graded size.
-enum class SeverityLevel { kNone, kLow, kMedium, kHigh };
-/// "none", "low", "medium", "high".
-const char* SeverityLevelName(SeverityLevel level);
-
-/// One grade and the rule that decided it, e.g.
-/// "ASTM D6433: max depth 32 mm in (25, 50] mm, mean diameter 310 mm in (200, 450] mm -> medium".
-struct SeverityGrade {
-  SeverityLevel level = SeverityLevel::kNone;
-  double equivalent_count = 0;  ///< ASTM: potholes counted (area / 0.5 m² when wider than 750 mm)
-  std::string rule;
-};
 
 /// One damage instance with its measurements. Metric fields are NaN where
 /// unknown (no calibration) so that a missing value is never a silent zero.

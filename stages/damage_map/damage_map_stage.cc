@@ -1,0 +1,264 @@
+#include "stages/damage_map/damage_map_stage.h"
+
+#include <fmt/format.h>
+
+#include <GeographicLib/LocalCartesian.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <map>
+
+#include "formats/checked_file.h"
+#include "formats/damage/detections_file.h"
+#include "formats/frame_index.h"
+#include "formats/geo/georeference_file.h"
+#include "formats/stereo/calibration_yaml.h"
+#include "formats/trajectory/tum_trajectory.h"
+#include "stages/damage_map/chainage.h"
+#include "stages/damage_map/damage_map_outputs.h"
+#include "survey/atomic_file.h"
+
+namespace rs {
+namespace fs = std::filesystem;
+namespace {
+
+constexpr const char* kStage = "damage_map";
+
+// Every selected frame's detections on the map, with the cameras' ground track in flight order.
+struct PlacedSurvey {
+  std::vector<MapObservation> obs;
+  std::vector<Eigen::Vector3d> track;
+  std::map<int64_t, fs::path> left_image;
+  int frames_with_detections = 0, frames_without_pose = 0, detections_unplaced = 0;
+};
+
+PlacedSurvey PlaceSurvey(StageContext& ctx, const GeoreferenceFile& geo, const DamageMapOptions& o) {
+  const auto frames = ReadFrameIndex(ctx.input_dir("frames") / "frames.csv");
+  const StereoCalibration calib = ReadCalibrationYaml(ctx.input_dir("calibration") / "calibration.yaml");
+  const fs::path traj_path = ctx.input_dir("trajectory_refined") / "trajectory_refined.tum";
+  std::map<int64_t, Eigen::Isometry3d> pose_by_t;
+  for (const auto& sp : ReadTumTrajectory(traj_path).poses) pose_by_t.emplace(sp.t_ns, sp.T_world_frame);
+  const fs::path damage_dir = ctx.input_dir("damage");
+  PlacedSurvey s;
+  for (const FrameRecord& f : frames) {
+    if (!ctx.frame_selection().Contains(f.id.value)) continue;
+    s.left_image[f.id.value] = f.left;
+    const auto pose = pose_by_t.find(f.t_ns);
+    if (pose != pose_by_t.end()) s.track.push_back(geo.ToEnu(pose->second.translation()));
+    const fs::path path = StageContext::FrameDirIn(damage_dir, f.id) / "detections.json";
+    if (!fs::exists(path)) continue;  // the damage stage skipped the frame (listed in its summary)
+    const FrameDetections detections = ReadFrameDetections(path);
+    if (detections.detections.empty()) continue;
+    ++s.frames_with_detections;
+    if (pose == pose_by_t.end()) {
+      ++s.frames_without_pose;
+      s.detections_unplaced += static_cast<int>(detections.detections.size());
+      continue;
+    }
+    const Eigen::Isometry3d T = pose->second;
+    auto placed = PlaceDetections(
+        detections, [&](const Eigen::Vector3d& p) { return geo.ToEnu(T * p); }, calib.left.width, calib.left.height,
+        o.border_px);
+    for (auto& p : placed) s.obs.push_back(std::move(p));
+  }
+  return s;
+}
+
+// Merges the views of each damage and fuses them; ids follow chainage (then offset).
+std::vector<MappedDamage> BuildMap(const PlacedSurvey& s, const DamageMapOptions& o, int* dropped) {
+  std::vector<int> depressions, cracks;
+  for (int i = 0; i < static_cast<int>(s.obs.size()); ++i)
+    (s.obs[i].detection.type == "crack" ? cracks : depressions).push_back(i);
+  const auto groups = [&](const std::vector<int>& idx, double min_overlap, double cell) {
+    std::vector<Footprint> f;
+    for (int i : idx) f.push_back(FootprintOf(s.obs[i].outline_enu));
+    auto g = GroupByOverlap(f, o.merge_tolerance_m, cell, min_overlap);
+    for (auto& members : g)
+      for (int& m : members) m = idx[m];
+    return g;
+  };
+  std::vector<MappedDamage> out;
+  const FusionOptions fo{o.best_views};
+  for (const auto& members : groups(depressions, o.min_overlap, o.cell_m))
+    out.push_back(FuseDepression(s.obs, members, fo));
+  CrackFusionOptions co;
+  co.cell_m = o.crack_cell_m;
+  co.gap_m = o.merge_tolerance_m;
+  for (const auto& members : groups(cracks, o.crack_min_overlap, o.crack_cell_m))
+    out.push_back(FuseCrack(s.obs, members, co));
+  const auto before = out.size();
+  std::erase_if(out, [&](const MappedDamage& m) { return static_cast<int>(m.members.size()) < o.min_observations; });
+  *dropped = static_cast<int>(before - out.size());
+
+  const Centreline line(s.track);
+  for (MappedDamage& m : out) {
+    const auto st = line.StationOf(m.centroid_enu);
+    m.chainage_m = st.chainage_m;
+    m.offset_m = st.offset_m;
+    GradeMappedDamage(m, o.severity);
+  }
+  std::stable_sort(out.begin(), out.end(), [](const MappedDamage& a, const MappedDamage& b) {
+    return std::make_pair(a.chainage_m, a.offset_m) < std::make_pair(b.chainage_m, b.offset_m);
+  });
+  for (size_t i = 0; i < out.size(); ++i) out[i].id = static_cast<int>(i) + 1;
+  return out;
+}
+
+// Counts by type and severity, for damage_map.json, the manifest and the run's summary line.
+nlohmann::json CountsOf(const std::vector<MappedDamage>& damages) {
+  nlohmann::json c = nlohmann::json::object();
+  for (const char* type : {"pothole", "crack", "other"}) c[type] = {{"total", 0}};
+  for (const MappedDamage& m : damages) {
+    auto& t = c[m.type];
+    t["total"] = t["total"].get<int>() + 1;
+    t[m.severity] = t.value(m.severity, 0) + 1;
+  }
+  return c;
+}
+
+std::string Headline(const nlohmann::json& counts) {
+  std::string s;
+  for (const char* type : {"pothole", "crack", "other"}) {
+    const auto& t = counts[type];
+    std::string levels;
+    for (const char* level : {"high", "medium", "low", "none"})
+      if (t.contains(level)) levels += fmt::format("{}{} {}", levels.empty() ? "" : ", ", level, t[level].get<int>());
+    s += fmt::format("{}{} {}{}", s.empty() ? "" : "; ", t["total"].get<int>(), type == std::string("other") ? "other" : std::string(type) + "s",
+                     levels.empty() ? "" : " (" + levels + ")");
+  }
+  return s;
+}
+
+void PublishEmpty(StageContext& ctx, const std::string& why) {
+  WriteFileChecked(ctx.out_dir() / "damage.geojson", "{\"type\":\"FeatureCollection\",\"features\":[]}\n");
+  WriteFileChecked(ctx.out_dir() / "damage.csv", "id\n");
+  WriteQgisStyles(ctx.out_dir());
+  fs::create_directories(ctx.out_dir() / "damage_thumbnails");
+  WriteJsonAtomic(ctx.out_dir() / "damage_map.json",
+                  {{"format", "roadsurvey-damage-map-v1"}, {"mapped", false}, {"reason", why}});
+  ctx.Warn("no damage map: " + why);
+}
+
+}  // namespace
+
+void DamageMapOptions::Check() const {
+  CheckRule(best_views >= 1, kStage, "best_views", best_views, ">= 1");
+  CheckRule(min_overlap > 0 && min_overlap <= 1, kStage, "min_overlap", min_overlap, "in (0, 1]");
+  CheckRule(crack_min_overlap > 0 && crack_min_overlap <= 1, kStage, "crack_min_overlap", crack_min_overlap,
+            "in (0, 1]");
+  severity.Check();
+}
+
+const OptionTable<DamageMapOptions>& DamageMapOptions::Table() {
+  using O = DamageMapOptions;
+  static const auto t =
+      OptionTable<O>()
+          .Add("merge_tolerance_m", &O::merge_tolerance_m,
+               "buffer around each view's outline when testing overlap: the relative pose error between views of "
+               "one damage; also the largest gap closed between a crack's pieces",
+               "m")
+          .Min(0)
+          .Add("min_overlap", &O::min_overlap,
+               "potholes and other depressions: two views show one damage when this share of the smaller "
+               "footprint lies in the other's buffer")
+          .Above(0)
+          .Add("crack_min_overlap", &O::crack_min_overlap, "the same for cracks (thin outlines seen in pieces)")
+          .Above(0)
+          .Add("cell_m", &O::cell_m, "raster cell of the overlap test", "m")
+          .Above(0)
+          .Add("border_px", &O::border_px,
+               "an outline within this many pixels of the image border is cut by it (area and volume are lower "
+               "bounds; such a view is used only when no view holds the whole outline)",
+               "px")
+          .Min(0)
+          .Add("best_views", &O::best_views, "views of the best rank the measurements are fused from")
+          .Min(1)
+          .Add("min_observations", &O::min_observations,
+               "damages seen by fewer views are left out of the map (counted in damage_map.json)")
+          .Min(1)
+          .Add("crack_cell_m", &O::crack_cell_m, "raster cell of a crack's merged outline and centreline", "m")
+          .Above(0)
+          .Add("thumbnails", &O::thumbnails, "write damage_thumbnails/<id>.jpg (a crop of the best view)")
+          .Include("severity", &O::severity, SeverityOptions::Table());
+  return t;
+}
+
+StageInfo DamageMapStage::Info() {
+  StageInfo info;
+  info.name = kStage;
+  info.version = 1;
+  info.doc =
+      "Every pothole and crack once, on the map: per-frame detections placed with the georeferenced cameras, views "
+      "of one damage merged by overlap on the road plane, measurements fused from the best views and graded, "
+      "chainage and offset along the surveyed line; publishes damage.geojson (WGS84), damage.csv (survey CRS), "
+      "QGIS styles and thumbnails.";
+  info.inputs = {"frames", "calibration", "damage", "trajectory_refined", "georeference"};
+  info.outputs = {"damage_map"};
+  info.published = {{"damage.geojson", "damage.geojson"},
+                    {"damage.csv", "damage.csv"},
+                    {"damage.qml", "damage.qml"},
+                    {"damage_cracks.qml", "damage_cracks.qml"},
+                    {"damage_map.json", "damage_map.json"},
+                    {"damage_thumbnails", "damage_thumbnails"}};
+  info.per_frame = true;  // its result depends on the frame selection
+  return info;
+}
+
+void DamageMapStage::Run(StageContext& ctx, const DamageMapOptions& o) const {
+  const auto t0 = std::chrono::steady_clock::now();
+  const GeoreferenceFile geo = ReadGeoreferenceFile(ctx.input_dir("georeference") / "georeference.json");
+  if (!geo.georeferenced) {
+    PublishEmpty(ctx, "the cameras are not georeferenced: " + geo.reason);
+    return;
+  }
+  const PlacedSurvey placed = PlaceSurvey(ctx, geo, o);
+  int dropped = 0;
+  const std::vector<MappedDamage> damages = BuildMap(placed, o, &dropped);
+  const GeographicLib::LocalCartesian enu(geo.origin.lat_deg, geo.origin.lon_deg, geo.origin.h_ellipsoid_m);
+  const auto crs = geo.MakeCrs();
+  WriteDamageGeoJson(ctx.out_dir() / "damage.geojson", damages, placed.obs, enu);
+  WriteDamageCsv(ctx.out_dir() / "damage.csv", damages, placed.obs, enu, *crs);
+  WriteQgisStyles(ctx.out_dir());
+  fs::create_directories(ctx.out_dir() / "damage_thumbnails");
+  if (o.thumbnails)
+    for (const MappedDamage& m : damages) {
+      const MapObservation& best = placed.obs[m.best];
+      WriteThumbnail(ctx.out_dir() / "damage_thumbnails" / fmt::format("{}.jpg", m.id),
+                     placed.left_image.at(best.frame), best);
+    }
+  const nlohmann::json counts = CountsOf(damages);
+  const Centreline line(placed.track);
+  const double sigma_h = std::hypot(geo.sigma_enu_m.x(), geo.sigma_enu_m.y());
+  WriteJsonAtomic(ctx.out_dir() / "damage_map.json",
+                  {{"format", "roadsurvey-damage-map-v1"},
+                   {"mapped", true},
+                   {"crs", {{"spec", geo.crs_spec}, {"epsg", crs->epsg()}, {"heights", ToString(crs->heights())}}},
+                   {"damages", damages.size()},
+                   {"counts", counts},
+                   {"observations", placed.obs.size()},
+                   {"frames_with_detections", placed.frames_with_detections},
+                   {"frames_without_pose", placed.frames_without_pose},
+                   {"detections_unplaced", placed.detections_unplaced},
+                   {"left_out_below_min_observations", dropped},
+                   {"centreline_length_m", line.length_m()},
+                   {"position_sigma_m",
+                    {{"horizontal", sigma_h},
+                     {"vertical", geo.sigma_enu_m.z()},
+                     {"definition", "robust sigma of the GNSS fit's residuals (georeference.json): the cameras' "
+                                    "absolute placement; views of one damage share most of it"}}},
+                   {"chainage", "metres along the cameras' ground track from the first frame; offset positive to "
+                                "the right of the direction of travel"}});
+  ctx.summary().frames_total = static_cast<int64_t>(placed.left_image.size());
+  ctx.summary().frames_computed = ctx.summary().frames_total;
+  ctx.Count("damages", static_cast<double>(damages.size()));
+  for (const char* type : {"pothole", "crack", "other"})
+    ctx.Count(std::string(type) + "s", counts[type]["total"].get<double>());
+  ctx.Count("observations", static_cast<double>(placed.obs.size()));
+  ctx.summary().counts["headline"] = Headline(counts);
+  if (placed.frames_without_pose > 0)
+    ctx.Warn(fmt::format("{} frame(s) with detections have no trajectory pose: their {} detection(s) are not on the map",
+                         placed.frames_without_pose, placed.detections_unplaced));
+  ctx.Time("damage_map", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+}
+
+}  // namespace rs
