@@ -42,6 +42,9 @@ struct DamageMapEvalOptions {
   int min_seen_pixels = 50;
   /// ... and none of them lies in the outer `border_px` rows and columns of the image.
   int border_px = 2;
+  /// A truth crack is also seen whole when the frames together saw this share of its line (its
+  /// mask pixels placed on the map with the true disparity and pose, within crack_sample_m · 2).
+  double min_line_seen = 0.95;
   /// Fixed tolerances of the summaries: |max depth error| (m), |area error| and |volume error| (%).
   double depth_tolerance_m = 0.010;
   double area_tolerance_pct = 10;
@@ -67,8 +70,14 @@ struct TruthSighting {
   int frames_whole = 0;    ///< frames where it is seen whole
   int frames_partial = 0;  ///< frames with some of its pixels, not whole (cut by the border or too few pixels)
   int max_pixels = 0;      ///< most pixels in one frame
+  /// Cracks: share of the true line that the frames together saw (NaN: not measured). A crack
+  /// longer than one view is seen whole over the flight though no single frame holds it.
+  double line_seen_over_frames = std::numeric_limits<double>::quiet_NaN();
+  bool whole_over_frames = false;  ///< line_seen_over_frames reached DamageMapEvalOptions::min_line_seen
   TruthSight Sight() const {
-    return frames_whole > 0 ? TruthSight::kWhole : frames_partial > 0 ? TruthSight::kPartial : TruthSight::kUnseen;
+    return frames_whole > 0 || whole_over_frames ? TruthSight::kWhole
+           : frames_partial > 0                  ? TruthSight::kPartial
+                                                 : TruthSight::kUnseen;
   }
 };
 /// By truth id; an id that is absent is unseen.
@@ -77,6 +86,18 @@ using TruthSightings = std::map<int, TruthSighting>;
 /// Adds one frame's truth instance mask (CV_16UC1, 0 = background, else the truth feature id).
 /// Throws std::invalid_argument on another image type.
 void AddFrameSightings(const cv::Mat& masks, const DamageMapEvalOptions& options, TruthSightings* sightings);
+
+/// Adds one frame's mask pixels of the truth ids in `ids` to `points` (by id), placed on the map
+/// (x east, y north of the truth's ENU) with the frame's true disparity (px), camera
+/// (f, cx, cy, baseline) and true left-camera-to-ENU pose.
+void AddFramePixelsOnMap(const cv::Mat& masks, const cv::Mat& truth_disparity_px, double f_px, double cx_px,
+                         double cy_px, double baseline_m, const cv::Matx44d& enu_from_camera,
+                         const std::vector<int>& ids, std::map<int, std::vector<cv::Point2d>>* points);
+
+/// Share of the polyline `line` (map metres) with a point of `seen` within `tolerance_m`, sampled
+/// every `step_m`.
+double LineSeenShare(const std::vector<cv::Point2d>& line, const std::vector<cv::Point2d>& seen, double tolerance_m,
+                     double step_m);
 
 /// The local ENU frame the truth is given in (truth/georeference.json "origin").
 struct EnuOrigin {
@@ -148,7 +169,7 @@ struct DamageTypeCounts {
   int small = 0;       ///< seen whole but below the size threshold
   int predicted = 0;   ///< predictions of the type
   int matched = 0;     ///< predictions matched one-to-one to a scored truth damage
-  int unscored = 0;    ///< predictions matched (or duplicating) a partial or small truth damage
+  int unscored = 0;    ///< predictions matched (or duplicating) a partial or small truth damage; cracks also within alligator cracking
   int duplicates = 0;  ///< further predictions on an already matched scored truth damage
   int false_positives = 0;
   int misses = 0;  ///< scored truth damages without a match

@@ -380,5 +380,31 @@ TEST(DamageMapEval, EmptyMapHasNoPrecision) {
   EXPECT_FALSE(e.Table().empty());
 }
 
+
+// A crack longer than one view: its mask pixels, placed on the map with the true disparity and
+// pose, cover the line over the frames together.
+TEST(DamageMapEval, CrackLineSeenOverFrames) {
+  const std::vector<cv::Point2d> line = {{0, 0}, {1, 0}};
+  std::vector<cv::Point2d> half;
+  for (double x = 0; x <= 0.5; x += 0.005) half.emplace_back(x, 0.003);
+  EXPECT_NEAR(LineSeenShare(line, half, 0.02, 0.01), 0.52, 0.02);  // 0.5 m seen + the 2 cm tolerance
+  EXPECT_EQ(LineSeenShare(line, {}, 0.02, 0.01), 0.0);
+
+  // One pixel of id 7 at the principal point, 4 m away, from a camera 1 m east looking down.
+  cv::Mat masks = cv::Mat::zeros(5, 5, CV_16UC1), disparity(5, 5, CV_32FC1, cv::Scalar(0));
+  masks.at<uint16_t>(2, 2) = 7;
+  masks.at<uint16_t>(0, 0) = 3;  // not asked for
+  const double f = 100, b = 0.2;
+  disparity.at<float>(2, 2) = static_cast<float>(f * b / 4);
+  disparity.at<float>(0, 0) = 5;
+  const cv::Matx44d enu_from_camera(1, 0, 0, 1, 0, -1, 0, 0, 0, 0, -1, 4, 0, 0, 0, 1);  // nadir at 4 m
+  std::map<int, std::vector<cv::Point2d>> points;
+  AddFramePixelsOnMap(masks, disparity, f, 2, 2, b, enu_from_camera, {7}, &points);
+  ASSERT_EQ(points.size(), 1u);
+  ASSERT_EQ(points[7].size(), 1u);
+  EXPECT_NEAR(points[7][0].x, 1.0, 1e-6);
+  EXPECT_NEAR(points[7][0].y, 0.0, 1e-6);
+}
+
 }  // namespace
 }  // namespace rs

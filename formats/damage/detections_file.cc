@@ -85,6 +85,10 @@ FrameDetections ReadFrameDetections(std::istream& in, const std::string& path) {
   if (!j.contains("frame") || !j["frame"].is_number_integer()) Fail(path, "no integer \"frame\"");
   out.frame = j["frame"].get<int64_t>();
   out.t_ns = j.value("t_ns", int64_t{0});
+  if (const auto r = j.find("analysed_range_m"); r != j.end() && !r->is_null()) {
+    if (!r->is_number() || !(r->get<double>() > 0)) Fail(path, "\"analysed_range_m\" is not a positive number or null");
+    out.analysed_range_m = r->get<double>();
+  }
   const auto list = j.find("detections");
   if (list == j.end() || !list->is_array()) Fail(path, "no \"detections\" array");
   for (size_t i = 0; i < list->size(); ++i) out.detections.push_back(ReadDetection((*list)[i], path, i));

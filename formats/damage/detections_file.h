@@ -5,6 +5,7 @@
 
 #include <filesystem>
 #include <iosfwd>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -34,6 +35,8 @@ struct DamageDetection {
 struct FrameDetections {
   int64_t frame = 0;
   int64_t t_ns = 0;
+  /// Camera depth beyond which the stage did not look for damage, m (infinite: no limit, or not stated).
+  double analysed_range_m = std::numeric_limits<double>::infinity();
   std::vector<DamageDetection> detections;
 };
 

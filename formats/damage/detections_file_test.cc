@@ -42,6 +42,17 @@ TEST(DetectionsFile, ReadsEveryField) {
   ASSERT_EQ(d.outline_cam.size(), 3u);
   EXPECT_DOUBLE_EQ(d.outline_cam[2].z(), 3.1);
   EXPECT_TRUE(d.floor_visible);
+  EXPECT_TRUE(std::isinf(f.analysed_range_m));  // not stated: no limit
+}
+
+TEST(DetectionsFile, AnalysedRange) {
+  std::string text = File(Detection());
+  text.replace(text.find("\"t_ns\""), 0, "\"analysed_range_m\": 9.5, ");
+  std::istringstream in(text);
+  EXPECT_DOUBLE_EQ(ReadFrameDetections(in, "d.json").analysed_range_m, 9.5);
+  text.replace(text.find("9.5"), 3, "-1");
+  std::istringstream bad(text);
+  EXPECT_THROW(ReadFrameDetections(bad, "d.json"), InputError);
 }
 
 TEST(DetectionsFile, NamesTheFileAndTheMissingField) {

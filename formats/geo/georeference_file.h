@@ -27,6 +27,7 @@ struct GeoreferenceFile {
 
   /// A SLAM-world point in the local ENU frame.
   Eigen::Vector3d ToEnu(const Eigen::Vector3d& p_slam) const { return scale * (R * p_slam) + t; }
+  Eigen::Vector3d FromEnu(const Eigen::Vector3d& p_enu) const { return R.transpose() * (p_enu - t) / scale; }
   /// The output CRS this file names (PROJ objects: build once, reuse).
   std::unique_ptr<OutputCrs> MakeCrs() const;
 };

@@ -285,6 +285,13 @@ void Grade(DamageFrame& s) {
       const cv::Rect& b = boxes[d.id];
       d.range_m = cv::mean(s.f.relief.road_depth_m(b), s.f.labels(b) == d.id)[0];
       d.sigma_depth_m = StereoDepthSigma(d.range_m, s.o.measure.sigma_disparity_px, s.g);
+      // The outline on the fitted road (a crack is no depth the disparity resolves): what places it on the map.
+      d.outline_cam_m.clear();
+      for (const cv::Point& p : d.outline_px)
+        if (const double z = s.f.surface.RayDepth(s.g, p.x, p.y); std::isfinite(z)) {
+          const Eigen::Vector3d q = CameraPointAtDepth(s.g, p.x, p.y, z);
+          d.outline_cam_m.emplace_back(q.x(), q.y(), q.z());
+        }
     }
     GradeInstance(d, s.o.severity);
   }

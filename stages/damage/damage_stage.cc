@@ -1,5 +1,7 @@
 #include "stages/damage/damage_stage.h"
 
+#include <cmath>
+
 #include <fmt/format.h>
 
 #include <opencv2/imgcodecs.hpp>
@@ -50,7 +52,7 @@ const OptionTable<DamageStageOptions>& DamageStageOptions::Table() {
 StageInfo DamageStage::Info() {
   StageInfo info;
   info.name = "damage";
-  info.version = 1;
+  info.version = 2;  // 2: cracks carry outline_cam_m (their outline on the fitted road)
   info.doc =
       "Per frame: robust 3-D road surface (obstacles removed), depth below the road, unsupervised damage "
       "segmentation, per-damage area, depth, volume, size, crack width/length, ASTM/FHWA severity.";
@@ -91,6 +93,10 @@ void DamageStage::Run(StageContext& ctx, const DamageStageOptions& o) const {
         nlohmann::json detections = {{"frame", f.id.value},
                                      {"t_ns", f.t_ns},
                                      {"threshold_sigma", result.threshold_sigma},
+                                     // Damage farther than this was not looked for (null: no limit).
+                                     {"analysed_range_m", std::isfinite(result.analysed_range_m)
+                                                              ? nlohmann::json(result.analysed_range_m)
+                                                              : nlohmann::json(nullptr)},
                                      {"road",
                                       {{"camera_height_m", result.surface.camera_height_m},
                                        {"residual_sigma_m", result.surface.residual_sigma_m},

@@ -42,7 +42,7 @@ const std::vector<std::string>& CsvFields() {
       "volume_m3", "sigma_volume_m3", "max_depth_seen_m", "max_depth_bound_m", "volume_upper_m3", "length_m",
       "sigma_length_m", "width_m", "sigma_width_m", "max_width_m", "max_diameter_m", "severity", "astm_d6433",
       "astm_d6433_rule", "fhwa_ltpp", "fhwa_ltpp_rule", "intervention", "intervention_rule", "chainage_m", "offset_m",
-      "observations", "best_frame", "floor_visible", "outline_complete", "thumbnail", "basis"};
+      "observations", "views_in_view", "detection_rate", "best_frame", "floor_visible", "outline_complete", "thumbnail", "basis"};
   return f;
 }
 
@@ -81,6 +81,8 @@ nlohmann::json DamageProperties(const MappedDamage& m, const std::vector<MapObse
           {"chainage_m", Num(m.chainage_m)},
           {"offset_m", Num(m.offset_m)},
           {"observations", m.members.size()},
+          {"views_in_view", m.views_in_view},
+          {"detection_rate", Num(m.detection_rate)},
           {"observation_frames", frames},
           {"best_frame", obs[m.best].frame},
           {"floor_visible", crack ? nullptr : nlohmann::json(m.floor_visible)},

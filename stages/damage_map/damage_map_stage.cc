@@ -7,15 +7,18 @@
 #include <algorithm>
 #include <chrono>
 #include <map>
+#include <set>
 
 #include "formats/checked_file.h"
 #include "formats/damage/detections_file.h"
 #include "formats/frame_index.h"
+#include "formats/rectified_stereo.h"
 #include "formats/geo/georeference_file.h"
 #include "formats/stereo/calibration_yaml.h"
 #include "formats/trajectory/tum_trajectory.h"
 #include "stages/damage_map/chainage.h"
 #include "stages/damage_map/damage_map_outputs.h"
+#include "stages/damage_map/footprint_overlap.h"
 #include "survey/atomic_file.h"
 
 namespace rs {
@@ -29,6 +32,8 @@ struct PlacedSurvey {
   std::vector<MapObservation> obs;
   std::vector<Eigen::Vector3d> track;
   std::map<int64_t, fs::path> left_image;
+  std::vector<ExaminedView> views;  ///< frames the damage stage examined that have a pose
+  RectifiedStereo camera;
   int frames_with_detections = 0, frames_without_pose = 0, detections_unplaced = 0;
 };
 
@@ -40,6 +45,11 @@ PlacedSurvey PlaceSurvey(StageContext& ctx, const GeoreferenceFile& geo, const D
   for (const auto& sp : ReadTumTrajectory(traj_path).poses) pose_by_t.emplace(sp.t_ns, sp.T_world_frame);
   const fs::path damage_dir = ctx.input_dir("damage");
   PlacedSurvey s;
+  s.camera = RectifiedStereoOf(calib);
+  // ENU -> SLAM world (the georeference's inverse similarity); the camera pose then takes it to the camera.
+  Eigen::Affine3d slam_from_enu = Eigen::Affine3d::Identity();
+  slam_from_enu.linear() = geo.R.transpose() / geo.scale;
+  slam_from_enu.translation() = -geo.R.transpose() * geo.t / geo.scale;
   for (const FrameRecord& f : frames) {
     if (!ctx.frame_selection().Contains(f.id.value)) continue;
     s.left_image[f.id.value] = f.left;
@@ -48,6 +58,9 @@ PlacedSurvey PlaceSurvey(StageContext& ctx, const GeoreferenceFile& geo, const D
     const fs::path path = StageContext::FrameDirIn(damage_dir, f.id) / "detections.json";
     if (!fs::exists(path)) continue;  // the damage stage skipped the frame (listed in its summary)
     const FrameDetections detections = ReadFrameDetections(path);
+    if (pose != pose_by_t.end())
+      s.views.push_back({f.id.value, Eigen::Affine3d(pose->second.inverse().matrix()) * slam_from_enu,
+                         detections.analysed_range_m});
     if (detections.detections.empty()) continue;
     ++s.frames_with_detections;
     if (pose == pose_by_t.end()) {
@@ -64,8 +77,24 @@ PlacedSurvey PlaceSurvey(StageContext& ctx, const GeoreferenceFile& geo, const D
   return s;
 }
 
+// The examined frames that detected the damage or had its centre in view, and the share that detected it.
+void RateDetection(const PlacedSurvey& s, int border_px, MappedDamage& m) {
+  const Eigen::Vector3d centre = m.type == "crack" ? PolylineMidpoint(m.geometry_enu) : m.centroid_enu;
+  std::set<int64_t> detected, looked;
+  for (int i : m.members) detected.insert(s.obs[i].frame);
+  looked = detected;
+  for (int64_t f : FramesInView(s.views, s.camera, centre, border_px)) looked.insert(f);
+  m.views_in_view = static_cast<int>(looked.size());
+  m.detection_rate = static_cast<double>(detected.size()) / static_cast<double>(looked.size());
+}
+
+struct LeftOut {
+  int few_views = 0;   ///< fewer observations than min_observations
+  int unrepeated = 0;  ///< detection rate below min_detection_rate
+};
+
 // Merges the views of each damage and fuses them; ids follow chainage (then offset).
-std::vector<MappedDamage> BuildMap(const PlacedSurvey& s, const DamageMapOptions& o, int* dropped) {
+std::vector<MappedDamage> BuildMap(const PlacedSurvey& s, const DamageMapOptions& o, LeftOut* dropped) {
   std::vector<int> depressions, cracks;
   for (int i = 0; i < static_cast<int>(s.obs.size()); ++i)
     (s.obs[i].detection.type == "crack" ? cracks : depressions).push_back(i);
@@ -86,9 +115,13 @@ std::vector<MappedDamage> BuildMap(const PlacedSurvey& s, const DamageMapOptions
   co.gap_m = o.merge_tolerance_m;
   for (const auto& members : groups(cracks, o.crack_min_overlap, o.crack_cell_m))
     out.push_back(FuseCrack(s.obs, members, co));
+  for (MappedDamage& m : out) RateDetection(s, o.border_px, m);
   const auto before = out.size();
   std::erase_if(out, [&](const MappedDamage& m) { return static_cast<int>(m.members.size()) < o.min_observations; });
-  *dropped = static_cast<int>(before - out.size());
+  dropped->few_views = static_cast<int>(before - out.size());
+  const auto seen = out.size();
+  std::erase_if(out, [&](const MappedDamage& m) { return m.detection_rate < o.min_detection_rate; });
+  dropped->unrepeated = static_cast<int>(seen - out.size());
 
   const Centreline line(s.track);
   for (MappedDamage& m : out) {
@@ -143,6 +176,8 @@ void PublishEmpty(StageContext& ctx, const std::string& why) {
 
 void DamageMapOptions::Check() const {
   CheckRule(best_views >= 1, kStage, "best_views", best_views, ">= 1");
+  CheckRule(min_detection_rate >= 0 && min_detection_rate <= 1, kStage, "min_detection_rate", min_detection_rate,
+            "in [0, 1]");
   CheckRule(min_overlap > 0 && min_overlap <= 1, kStage, "min_overlap", min_overlap, "in (0, 1]");
   CheckRule(crack_min_overlap > 0 && crack_min_overlap <= 1, kStage, "crack_min_overlap", crack_min_overlap,
             "in (0, 1]");
@@ -176,6 +211,11 @@ const OptionTable<DamageMapOptions>& DamageMapOptions::Table() {
           .Add("min_observations", &O::min_observations,
                "damages seen by fewer views are left out of the map (counted in damage_map.json)")
           .Min(1)
+          .Add("min_detection_rate", &O::min_detection_rate,
+               "a damage stays on the map when at least this share of the examined views that had its centre "
+               "in view (or detected it) detected it: real damage is seen by every view of it, spurious "
+               "detections are not repeated (0 keeps all)")
+          .Min(0)
           .Add("crack_cell_m", &O::crack_cell_m, "raster cell of a crack's merged outline and centreline", "m")
           .Above(0)
           .Add("thumbnails", &O::thumbnails, "write damage_thumbnails/<id>.jpg (a crop of the best view)")
@@ -212,7 +252,7 @@ void DamageMapStage::Run(StageContext& ctx, const DamageMapOptions& o) const {
     return;
   }
   const PlacedSurvey placed = PlaceSurvey(ctx, geo, o);
-  int dropped = 0;
+  LeftOut dropped;
   const std::vector<MappedDamage> damages = BuildMap(placed, o, &dropped);
   const GeographicLib::LocalCartesian enu(geo.origin.lat_deg, geo.origin.lon_deg, geo.origin.h_ellipsoid_m);
   const auto crs = geo.MakeCrs();
@@ -239,7 +279,9 @@ void DamageMapStage::Run(StageContext& ctx, const DamageMapOptions& o) const {
                    {"frames_with_detections", placed.frames_with_detections},
                    {"frames_without_pose", placed.frames_without_pose},
                    {"detections_unplaced", placed.detections_unplaced},
-                   {"left_out_below_min_observations", dropped},
+                   {"left_out_below_min_observations", dropped.few_views},
+                   {"left_out_below_min_detection_rate", dropped.unrepeated},
+                   {"examined_frames_with_pose", placed.views.size()},
                    {"centreline_length_m", line.length_m()},
                    {"position_sigma_m",
                     {{"horizontal", sigma_h},

@@ -7,6 +7,7 @@
 
 #include "stages/damage_map/fuse_crack.h"
 #include "stages/damage_map/fuse_depression.h"
+#include "stages/damage_map/view_coverage.h"
 #include "survey/stage.h"
 
 namespace rs {
@@ -19,6 +20,7 @@ struct DamageMapOptions {
   int border_px = 2;                 ///< an outline this close to the image border is cut by it
   int best_views = 3;                ///< views of the best rank fused
   int min_observations = 1;          ///< damages seen by fewer views are left out (counted)
+  double min_detection_rate = 0.5;   ///< share of the views with it in view that must detect it
   double crack_cell_m = 0.005;       ///< raster cell of the merged crack outline
   bool thumbnails = true;            ///< write damage_thumbnails/<id>.jpg
   SeverityOptions severity;

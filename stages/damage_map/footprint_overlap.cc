@@ -53,11 +53,14 @@ double OverlapOfSmaller(const Footprint& a, const Footprint& b, double tol, doub
                       static_cast<int>(std::ceil((hi.y() - lo.y()) / cell)) + 1);
   const cv::Mat ma = Rasterise(a, lo, cell, size), mb = Rasterise(b, lo, cell, size);
   const int r = static_cast<int>(std::ceil(tol / cell));
-  cv::Mat da = ma, db = mb;
+  cv::Mat da, db;  // fresh buffers: a header copy would share ma's pixels and dilate it too
   if (r > 0) {
     const cv::Mat disk = cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * r + 1, 2 * r + 1));
     cv::dilate(ma, da, disk);
     cv::dilate(mb, db, disk);
+  } else {
+    da = ma;
+    db = mb;
   }
   const double na = cv::countNonZero(ma), nb = cv::countNonZero(mb);
   if (na == 0 || nb == 0) return 0;

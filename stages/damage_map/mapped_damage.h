@@ -44,6 +44,9 @@ struct MappedDamage {
   InterventionGrade intervention;
   std::string severity = "none";  ///< the governing level: ASTM for potholes, FHWA for cracks
   double chainage_m = kNotMeasured, offset_m = kNotMeasured;
+  /// Examined frames that detected it or had its centre in view, and the share that detected it.
+  int views_in_view = 0;
+  double detection_rate = kNotMeasured;
 };
 
 }  // namespace rs

@@ -68,7 +68,9 @@ Eigen::Isometry3d GaugeTransform(const std::vector<Eigen::Isometry3d>& slam,
 
 Trajectory CarryTrajectory(const Trajectory& slam, std::vector<KeyframeCorrection> corr) {
   if (corr.empty()) throw std::invalid_argument("carry: no keyframe correction");
-  std::stable_sort(corr.begin(), corr.end(), [](const auto& a, const auto& b) { return a.t_ns < b.t_ns; });
+  // In-place sort: stable_sort's temporary buffer ignores the over-alignment Eigen's Isometry3d
+  // needs under AVX (-march=native) and the vectorised copies into it fault.
+  std::sort(corr.begin(), corr.end(), [](const auto& a, const auto& b) { return a.t_ns < b.t_ns; });
   Trajectory out = slam;
   for (StampedPose& pose : out.poses) {
     const auto after = std::lower_bound(corr.begin(), corr.end(), pose.t_ns,

@@ -25,11 +25,10 @@ struct ProgramResult {
   std::string output;  ///< stdout and stderr together
 };
 
-/// Runs `prefix roadsurvey <args>` through the shell and captures its output; `prefix` sets the
-/// environment or limits (`ulimit -f 600;`, `VAR=value`).
-inline ProgramResult RunProgramWith(const std::string& prefix, const std::string& args) {
+/// Runs a shell command line and captures its stdout and stderr together.
+inline ProgramResult RunShell(const std::string& command) {
   ProgramResult r;
-  const std::string cmd = "(" + prefix + " " + ProgramPath().string() + " " + args + ") 2>&1";
+  const std::string cmd = "(" + command + ") 2>&1";
   FILE* pipe = ::popen(cmd.c_str(), "r");
   if (!pipe) return r;
   std::array<char, 4096> buf;
@@ -38,6 +37,12 @@ inline ProgramResult RunProgramWith(const std::string& prefix, const std::string
   const int status = ::pclose(pipe);
   r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return r;
+}
+
+/// Runs `prefix roadsurvey <args>` through the shell and captures its output; `prefix` sets the
+/// environment or limits (`ulimit -f 600;`, `VAR=value`).
+inline ProgramResult RunProgramWith(const std::string& prefix, const std::string& args) {
+  return RunShell(prefix + " " + ProgramPath().string() + " " + args);
 }
 
 /// Runs `roadsurvey <args>` through the shell and captures its output.

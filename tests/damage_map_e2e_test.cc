@@ -1,0 +1,133 @@
+// End-to-end damage map of a small simulated survey: `roadsurvey simulate`, `run` and
+// `eval damage-map` exactly as a user runs them, scored against the simulator's truth, and the
+// published GeoJSON read back by GDAL's own tools (Debian gdal-bin; skipped when absent).
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <fstream>
+#include <regex>
+
+#include "tests/support/run_program.h"
+
+namespace rs::test {
+namespace {
+namespace fs = std::filesystem;
+
+class DamageMapE2E : public ::testing::Test {
+ protected:
+  // One rtk survey shared by the tests: simulated and run once (about a minute on two cores).
+  static void SetUpTestSuite() {
+    root_ = fs::temp_directory_path() / ("rs_damage_map_e2e_" + std::to_string(::getpid()));
+    fs::remove_all(root_);
+    dir_ = root_ / "rtk";
+    auto r = RunProgram("simulate " + dir_.string() +
+                        " --preset rtk --progress quiet --num_frames 30 --potholes_per_100m 40 --cracks_per_100m 20");
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    run_ = RunProgram("run " + (dir_ / "survey.json").string() + " --progress quiet");
+    ASSERT_EQ(run_.exit_code, 0) << run_.output;
+  }
+  static void TearDownTestSuite() { fs::remove_all(root_); }
+
+  static fs::path root_, dir_;
+  static ProgramResult run_;
+};
+fs::path DamageMapE2E::root_, DamageMapE2E::dir_;
+ProgramResult DamageMapE2E::run_;
+
+// Shoelace area of a lon/lat ring (positive: counter-clockwise).
+double SignedArea(const nlohmann::json& ring) {
+  double a = 0;
+  for (size_t i = 0; i + 1 < ring.size(); ++i)
+    a += ring[i][0].get<double>() * ring[i + 1][1].get<double>() - ring[i + 1][0].get<double>() * ring[i][1].get<double>();
+  return a / 2;
+}
+
+// One feature per pothole the flight sees whole, placed within 10 cm; the measurements within
+// their stated uncertainty.
+TEST_F(DamageMapE2E, RtkOneFeaturePerDamageWhereItIs) {
+  const fs::path json = dir_ / "eval.json";
+  const auto r = RunProgram("eval damage-map " + dir_.string() + " --json " + json.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto ev = ReadJson(json);
+  const auto& pc = ev["potholes"]["counts"];
+  ASSERT_GT(pc["seen"].get<int>(), 0) << "the flight must see some pothole whole: " << r.output;
+  EXPECT_EQ(pc["duplicates"].get<int>(), 0) << r.output;
+  EXPECT_GE(pc["recall"].get<double>(), 0.95) << r.output;
+  EXPECT_GE(pc["precision"].get<double>(), 0.95) << r.output;
+  EXPECT_LT(ev["potholes"]["summary"]["centroid_error_m"]["max_abs"].get<double>(), 0.10) << r.output;
+  for (const auto& m : ev["potholes"]["matches"]) {
+    if (!m["scored"].get<bool>() || m["floor_visible"] != true) continue;
+    EXPECT_LT(std::abs(m["depth_error_mm"].get<double>()), 10.0) << m.dump();
+    EXPECT_LT(std::abs(m["area_error_pct"].get<double>()), 10.0) << m.dump();
+  }
+  EXPECT_EQ(ev["cracks"]["counts"]["duplicates"].get<int>(), 0) << r.output;
+
+  // The run's summary prints the map's counts by type and severity.
+  EXPECT_NE(run_.output.find(" potholes"), std::string::npos) << run_.output;
+}
+
+// RFC 7946 as the map is written: WGS84 lon/lat near the survey, 8 decimals, counter-clockwise outer
+// rings, no crs member; one CSV row and one thumbnail per feature.
+TEST_F(DamageMapE2E, GeoJsonIsRfc7946) {
+  const fs::path out = dir_ / "out";
+  const std::string text = Slurp(out / "damage.geojson");
+  const auto doc = nlohmann::json::parse(text);
+  EXPECT_EQ(doc["type"], "FeatureCollection");
+  EXPECT_FALSE(doc.contains("crs"));
+  const auto truth = ReadJson(dir_ / "truth" / "georeference.json");
+  const double lat0 = truth["origin"]["lat_deg"], lon0 = truth["origin"]["lon_deg"];
+  const auto& features = doc["features"];
+  ASSERT_GT(features.size(), 0u);
+  for (const auto& f : features) {
+    const auto& g = f["geometry"];
+    std::vector<nlohmann::json> points;
+    if (g["type"] == "Polygon") {
+      ASSERT_EQ(g["coordinates"].size(), 1u);
+      const auto& ring = g["coordinates"][0];
+      ASSERT_GE(ring.size(), 4u);
+      EXPECT_EQ(ring.front(), ring.back()) << "closed ring";
+      EXPECT_GT(SignedArea(ring), 0) << "counter-clockwise outer ring, feature " << f["properties"]["id"];
+      for (const auto& p : ring) points.push_back(p);
+    } else {
+      ASSERT_EQ(g["type"], "LineString");
+      EXPECT_EQ(f["properties"]["type"], "crack");
+      for (const auto& p : g["coordinates"]) points.push_back(p);
+    }
+    for (const auto& p : points) {  // within 200 m of the survey's origin (2e-3 deg at 45 deg N)
+      EXPECT_NEAR(p[0].get<double>(), lon0, 3e-3);
+      EXPECT_NEAR(p[1].get<double>(), lat0, 2e-3);
+    }
+    const fs::path thumb = out / f["properties"]["thumbnail"].get<std::string>();
+    EXPECT_TRUE(fs::exists(thumb)) << thumb;
+  }
+  // 8 decimals (1.1 mm): no longer fractions.
+  EXPECT_FALSE(std::regex_search(text, std::regex("[0-9]\\.[0-9]{9,}[,\\]]")));
+  std::ifstream csv(out / "damage.csv");
+  std::string line;
+  size_t rows = 0;
+  std::getline(csv, line);
+  EXPECT_EQ(line.rfind("id,easting_m,northing_m,height_m", 0), 0u) << line;
+  while (std::getline(csv, line)) ++rows;
+  EXPECT_EQ(rows, features.size());
+}
+
+// GDAL reads the file as WGS84 with the right count and converts it to a GeoPackage.
+TEST_F(DamageMapE2E, GdalReadsAndConverts) {
+  if (std::system("command -v ogrinfo >/dev/null 2>&1 && command -v ogr2ogr >/dev/null 2>&1") != 0)
+    GTEST_SKIP() << "ogrinfo/ogr2ogr not installed (Debian gdal-bin, installed by setup.sh)";
+  const fs::path geojson = dir_ / "out" / "damage.geojson";
+  const size_t features = ReadJson(geojson)["features"].size();
+  const auto info = RunShell("ogrinfo -ro -al -so " + geojson.string());
+  ASSERT_EQ(info.exit_code, 0) << info.output;
+  EXPECT_NE(info.output.find("Feature Count: " + std::to_string(features)), std::string::npos) << info.output;
+  EXPECT_NE(info.output.find("ID[\"EPSG\",4326]"), std::string::npos) << info.output;
+  const fs::path gpkg = dir_ / "damage.gpkg";
+  const auto conv = RunShell("ogr2ogr -f GPKG " + gpkg.string() + " " + geojson.string());
+  ASSERT_EQ(conv.exit_code, 0) << conv.output;
+  const auto back = RunShell("ogrinfo -ro -al -so " + gpkg.string());
+  EXPECT_NE(back.output.find("Feature Count: " + std::to_string(features)), std::string::npos) << back.output;
+}
+
+}  // namespace
+}  // namespace rs::test
