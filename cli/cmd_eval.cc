@@ -613,6 +613,9 @@ Command EvalCommand() {
         dmap->add_option("survey", dm->survey_dir, "folder written by `roadsurvey simulate`")->required();
         dmap->add_option("--output", dm->output, "the run's output folder (default: survey.json's \"output\")");
         dmap->add_option("--json", dm->json, "write the evaluation as JSON ('-' = stdout)");
+        dmap->add_flag("--absolute", [dm](int64_t) { dm->options.remove_placement_offset = false; },
+                       "match the map as it stands (default: the cameras' mean placement error, from "
+                       "cameras.csv against the truth poses, is removed first; absolute errors are reported either way)");
         dmap->add_option("--min-pothole-diameter", dm->options.min_pothole_diameter_m,
                          "truth potholes at least this wide (mean_diameter_m) are scored, m")
             ->check(CLI::NonNegativeNumber);

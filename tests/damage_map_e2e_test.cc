@@ -22,7 +22,7 @@ class DamageMapE2E : public ::testing::Test {
     fs::remove_all(root_);
     dir_ = root_ / "rtk";
     auto r = RunProgram("simulate " + dir_.string() +
-                        " --preset rtk --progress quiet --num_frames 30 --potholes_per_100m 40 --cracks_per_100m 20");
+                        " --preset rtk --progress quiet");
     ASSERT_EQ(r.exit_code, 0) << r.output;
     run_ = RunProgram("run " + (dir_ / "survey.json").string() + " --progress quiet");
     ASSERT_EQ(run_.exit_code, 0) << run_.output;

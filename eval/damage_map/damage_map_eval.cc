@@ -9,12 +9,15 @@
 #include <opencv2/core/eigen.hpp>
 
 #include <algorithm>
+#include <fstream>
+#include <sstream>
 #include <cmath>
 #include <set>
 #include <stdexcept>
 #include <variant>
 
 #include "eval/damage/sim_truth.h"
+#include "formats/trajectory/tum_trajectory.h"
 #include "formats/input_error.h"
 #include "survey/atomic_file.h"
 
@@ -630,6 +633,7 @@ json DamageMapEvalOptions::ToJson() const {
           {"min_crack_coverage", min_crack_coverage},
           {"crack_sample_m", crack_sample_m},
           {"min_line_seen", min_line_seen},
+          {"remove_placement_offset", remove_placement_offset},
           {"min_seen_pixels", min_seen_pixels},
           {"border_px", border_px},
           {"depth_tolerance_m", depth_tolerance_m},
@@ -649,8 +653,13 @@ const char* TruthSightName(TruthSight s) {
 
 // ---------------------------------------------------------------- sightings
 
-void AddFrameSightings(const cv::Mat& masks, const DamageMapEvalOptions& o, TruthSightings* sightings) {
+void AddFrameSightings(const cv::Mat& masks, const DamageMapEvalOptions& o, TruthSightings* sightings,
+                       const cv::Mat& disparity, double bf, double max_range_m) {
   if (masks.type() != CV_16UC1) throw std::invalid_argument("AddFrameSightings: the truth mask must be CV_16UC1");
+  const bool ranged = std::isfinite(max_range_m) && !disparity.empty();
+  if (ranged && (disparity.type() != CV_32FC1 || disparity.size() != masks.size()))
+    throw std::invalid_argument("AddFrameSightings: the truth disparity must be CV_32FC1 of the mask's size");
+  const float min_disparity = ranged ? static_cast<float>(bf / max_range_m) : 0.0f;
   std::vector<int> count(65536, 0);
   std::vector<char> border(65536, 0);
   const int b = o.border_px;
@@ -662,6 +671,7 @@ void AddFrameSightings(const cv::Mat& masks, const DamageMapEvalOptions& o, Trut
       if (id == 0) continue;
       ++count[id];
       if (edge_row || u < b || u >= masks.cols - b) border[id] = 1;
+      if (ranged && !(disparity.at<float>(v, u) >= min_disparity)) border[id] = 1;  // beyond the analysed range
     }
   }
   for (int id = 1; id < 65536; ++id) {
@@ -728,16 +738,51 @@ double LineSeenShare(const std::vector<cv::Point2d>& line, const std::vector<cv:
   return samples ? static_cast<double>(covered) / samples : 0;
 }
 
+// The range the damage stage analysed in a frame (its detections.json); infinite when not stated.
+double AnalysedRange(const fs::path& detections_json) {
+  if (!fs::exists(detections_json)) return std::numeric_limits<double>::infinity();
+  const json j = ReadJsonFile(detections_json);
+  const auto it = j.find("analysed_range_m");
+  return it != j.end() && it->is_number() && it->get<double>() > 0 ? it->get<double>()
+                                                                    : std::numeric_limits<double>::infinity();
+}
+
+// Moves a predicted feature back by the mean placement error of the cameras that observed it; the shift.
+cv::Point2d ShiftBack(PlaneFeature& f, const CameraPlacement& placement) {
+  cv::Point2d sum(0, 0);
+  int n = 0;
+  if (const auto it = f.properties->find("observation_frames"); it != f.properties->end() && it->is_array())
+    for (const auto& frame : *it)
+      if (frame.is_number_integer())
+        if (const auto c = placement.by_frame.find(frame.get<int64_t>()); c != placement.by_frame.end()) {
+          sum += c->second;
+          ++n;
+        }
+  const cv::Point2d shift = n > 0 ? sum / n : placement.mean;
+  for (auto& ring : f.rings)
+    for (auto& q : ring) q -= shift;
+  for (auto& q : f.line) q -= shift;
+  f.centroid -= shift;
+  f.box.x -= shift.x;
+  f.box.y -= shift.y;
+  return shift;
+}
+
 // ---------------------------------------------------------------- scoring
 
 DamageMapEvaluation ScoreDamageMap(const geojson::FeatureCollection& truth_fc,
                                    const geojson::FeatureCollection& predicted_fc, const EnuOrigin& origin,
                                    const TruthSightings& sightings, const DamageMapEvalOptions& o,
-                                   const std::string& truth_name, const std::string& predicted_name) {
+                                   const std::string& truth_name, const std::string& predicted_name,
+                                   const CameraPlacement* placement) {
   o.Check();
   const Converter conv(origin);
   const std::vector<PlaneFeature> truth = ToPlane(truth_fc, conv, true, truth_name);
-  const std::vector<PlaneFeature> pred = ToPlane(predicted_fc, conv, false, predicted_name);
+  std::vector<PlaneFeature> pred = ToPlane(predicted_fc, conv, false, predicted_name);
+  std::map<int, cv::Point2d> shift_of;  // by predicted id
+  if (placement)
+    for (PlaneFeature& p : pred) shift_of[p.id] = ShiftBack(p, *placement);
+
   // Every number the scoring may read is checked up front, matched or not.
   for (const PlaneFeature& p : pred) {
     for (const char* key : {"area_m2", "sigma_area_m2", "max_depth_m", "sigma_max_depth_m", "mean_depth_m", "volume_m3",
@@ -754,6 +799,7 @@ DamageMapEvaluation ScoreDamageMap(const geojson::FeatureCollection& truth_fc,
   }
   DamageMapEvaluation e;
   e.options = o;
+  if (placement) e.placement_offset_m = placement->mean;
   e.truth_path = truth_name;
   e.predicted_path = predicted_name;
 
@@ -793,7 +839,7 @@ DamageMapEvaluation ScoreDamageMap(const geojson::FeatureCollection& truth_fc,
       }
     const Assignment a = Assign(cand, p_pot.size(), t_pot.size());
     std::vector<std::optional<bool>> depth_v, area_v, volume_v;
-    std::vector<double> centroid, iou, depth, area, volume;
+    std::vector<double> centroid, absolute_centroid, iou, depth, area, volume;
     for (size_t j = 0; j < t_pot.size(); ++j) {
       const int i = a.pred_of[j];
       if (i < 0) continue;
@@ -807,6 +853,7 @@ DamageMapEvaluation ScoreDamageMap(const geojson::FeatureCollection& truth_fc,
       m.overlap = ov.Ratio();
       m.iou = ov.Iou();
       m.centroid_error_m = std::hypot(p.centroid.x - t.centroid.x, p.centroid.y - t.centroid.y);
+      m.absolute_centroid_error_m = cv::norm(p.centroid + shift_of[p.id] - t.centroid);
       m.truth_max_depth_m = RequiredNumber(t, "max_depth_m", truth_name);
       m.truth_area_m2 = RequiredNumber(t, "area_m2", truth_name);
       m.truth_volume_m3 = RequiredNumber(t, "volume_m3", truth_name);
@@ -840,6 +887,7 @@ DamageMapEvaluation ScoreDamageMap(const geojson::FeatureCollection& truth_fc,
         ++e.potholes.matched;
         if (m.floor_visible == false) ++e.floor_hidden;
         centroid.push_back(m.centroid_error_m);
+        absolute_centroid.push_back(m.absolute_centroid_error_m);
         iou.push_back(m.iou);
         depth.push_back(m.depth_error_mm);
         area.push_back(m.area_error_pct);
@@ -853,6 +901,7 @@ DamageMapEvaluation ScoreDamageMap(const geojson::FeatureCollection& truth_fc,
       e.pothole_matches.push_back(m);
     }
     e.centroid_error_m = Summarise(centroid, {}, kNoValue);
+    e.absolute_centroid_error_m = Summarise(absolute_centroid, {}, kNoValue);
     e.iou = Summarise(iou, {}, kNoValue);
     e.depth_error_mm = Summarise(depth, depth_v, 1000 * o.depth_tolerance_m);
     e.area_error_pct = Summarise(area, area_v, o.area_tolerance_pct);
@@ -990,6 +1039,11 @@ std::string DamageMapEvaluation::Table() const {
       "the true line within {:g} m; precision = matched / (matched + duplicates + FP)\n\n",
       o.min_seen_pixels, o.border_px, 100 * o.min_line_seen, o.min_pothole_diameter_m, o.min_overlap, 1000 * o.cell_m,
       o.min_crack_length_m, 100 * o.min_crack_coverage, o.crack_tolerance_m);
+  s += placement_frames > 0
+           ? fmt::format("placement: the cameras' mean error E {:+.3f} N {:+.3f} m (|{:.3f}| m, {} cameras); each "
+                         "damage moved back by its observing cameras' error before matching; 'abs.' keeps it\n\n",
+                         placement_offset_m.x, placement_offset_m.y, cv::norm(placement_offset_m), placement_frames)
+           : std::string("placement: as the map states it (no offset removed)\n\n");
   s += fmt::format("{:<9} {:>5} {:>5} {:>7} {:>5} {:>6} {:>5} {:>7} {:>8} {:>4} {:>3} {:>5} {:>6} {:>9}\n", "type",
                    "truth", "seen", "partial", "small", "unseen", "pred", "matched", "unscored", "dup", "FP", "miss",
                    "recall", "precision");
@@ -1019,6 +1073,7 @@ std::string DamageMapEvaluation::Table() const {
   s += fmt::format("\npothole summary over {} scored matches ({} with the floor hidden): |error|\n", potholes.matched,
                    floor_hidden);
   s += SummaryRow("centroid m", centroid_error_m, 3, "m");
+  s += SummaryRow("abs. centroid m", absolute_centroid_error_m, 3, "m");
   s += fmt::format("  {:<16} n {:>3}  median {}  min {}\n", "IoU", iou.n, Fix(iou.median_abs, 3, 7),
                    Fix(iou.min_abs, 3, 7));
   s += SummaryRow("max depth mm", depth_error_mm, 1, "mm");
@@ -1058,6 +1113,7 @@ json DamageMapEvaluation::ToJson() const {
                   {"overlap", m.overlap},
                   {"iou", m.iou},
                   {"centroid_error_m", m.centroid_error_m},
+                  {"absolute_centroid_error_m", m.absolute_centroid_error_m},
                   {"floor_visible", Opt(m.floor_visible)},
                   {"truth",
                    {{"max_depth_m", Num(m.truth_max_depth_m)},
@@ -1088,6 +1144,11 @@ json DamageMapEvaluation::ToJson() const {
           {"truth", truth_path},
           {"frames", frames},
           {"options", options.ToJson()},
+          {"placement_offset_m",
+           {{"east", placement_offset_m.x},
+            {"north", placement_offset_m.y},
+            {"horizontal", cv::norm(placement_offset_m)},
+            {"cameras", placement_frames}}},
           {"potholes",
            {{"counts", CountsJson(potholes)},
             {"matches", pm},
@@ -1097,6 +1158,7 @@ json DamageMapEvaluation::ToJson() const {
             {"floor_hidden", floor_hidden},
             {"summary",
              {{"centroid_error_m", SummaryJson(centroid_error_m)},
+              {"absolute_centroid_error_m", SummaryJson(absolute_centroid_error_m)},
               {"iou", SummaryJson(iou)},
               {"depth_error_mm", SummaryJson(depth_error_mm)},
               {"area_error_pct", SummaryJson(area_error_pct)},
@@ -1114,6 +1176,47 @@ json DamageMapEvaluation::ToJson() const {
 }
 
 // ---------------------------------------------------------------- files
+
+CameraPlacement ReadCameraPlacement(const fs::path& cameras_csv, const fs::path& truth_tum, const EnuOrigin& origin) {
+  const Trajectory truth = ReadTumTrajectory(truth_tum);
+  std::ifstream in(cameras_csv);
+  if (!in) throw InputError(InputLocation::File(cameras_csv.string()), "cannot open");
+  std::string line;
+  std::getline(in, line);
+  std::vector<std::string> header;
+  for (std::stringstream ss(line); std::getline(ss, line, ',');) header.push_back(line);
+  const auto column = [&](const char* name) {
+    const auto it = std::find(header.begin(), header.end(), name);
+    if (it == header.end())
+      throw InputError(InputLocation::Line(cameras_csv.string(), 1), fmt::format("no column \"{}\"", name));
+    return static_cast<size_t>(it - header.begin());
+  };
+  const size_t c_frame = column("frame"), c_lat = column("lat_deg"), c_lon = column("lon_deg"),
+               c_status = column("status");
+  const Converter conv(origin);
+  CameraPlacement out;
+  cv::Point2d sum(0, 0);
+  int row = 1;
+  while (std::getline(in, line)) {
+    ++row;
+    std::vector<std::string> f;
+    for (std::stringstream ss(line); std::getline(ss, line, ',');) f.push_back(line);
+    if (f.size() < header.size()) throw InputError(InputLocation::Line(cameras_csv.string(), row), "too few columns");
+    if (f[c_status] != "visual") continue;
+    try {
+      const size_t k = std::stoul(f[c_frame]);
+      if (k >= truth.poses.size()) continue;
+      const cv::Point2d ours = conv.ToEnu({std::stod(f[c_lon]), std::stod(f[c_lat]), std::nullopt});
+      const Eigen::Vector3d t = truth.poses[k].T_world_frame.translation();
+      out.by_frame[static_cast<int64_t>(k)] = ours - cv::Point2d(t.x(), t.y());
+      sum += out.by_frame[static_cast<int64_t>(k)];
+    } catch (const std::logic_error&) {
+      throw InputError(InputLocation::Line(cameras_csv.string(), row), "frame, lat_deg or lon_deg is not a number");
+    }
+  }
+  if (!out.by_frame.empty()) out.mean = sum / static_cast<double>(out.by_frame.size());
+  return out;
+}
 
 EnuOrigin ReadEnuOrigin(const fs::path& path) {
   const json j = ReadJsonFile(path);
@@ -1149,7 +1252,8 @@ DamageMapEvaluation EvaluateDamageMap(const fs::path& survey_dir, const fs::path
   const fs::path truth_path = survey_dir / "truth/damages.geojson";
   const geojson::FeatureCollection truth = geojson::ReadFeatureCollection(truth_path);
   const EnuOrigin origin = ReadEnuOrigin(survey_dir / "truth/georeference.json");
-  const fs::path predicted_path = SurveyOutputDir(survey_dir, output_dir) / "damage.geojson";
+  const fs::path output = SurveyOutputDir(survey_dir, output_dir);
+  const fs::path predicted_path = output / "damage.geojson";
   if (!fs::exists(predicted_path))
     throw InputError(
         InputLocation::File(predicted_path.string()),
@@ -1174,7 +1278,8 @@ DamageMapEvaluation EvaluateDamageMap(const fs::path& survey_dir, const fs::path
   const RectifiedStereo& g = survey.geometry;
   tbb::parallel_for(size_t{0}, survey.frames.size(), [&](size_t k) {
     const SimFrameTruth frame = ReadSimFrame(survey, k);
-    AddFrameSightings(frame.masks, options, &per_frame[k]);
+    AddFrameSightings(frame.masks, options, &per_frame[k], frame.truth_disparity_px, g.bf(),
+                      AnalysedRange(output / "damage" / survey.frames[k] / "detections.json"));
     if (crack_ids.empty()) return;
     cv::Matx44d enu_from_camera;
     cv::eigen2cv(survey.trajectory.poses[k].T_world_frame.matrix(), enu_from_camera);
@@ -1198,8 +1303,14 @@ DamageMapEvaluation EvaluateDamageMap(const fs::path& survey_dir, const fs::path
     t.line_seen_over_frames = LineSeenShare(line, seen, 2 * options.crack_sample_m, options.crack_sample_m);
     t.whole_over_frames = t.line_seen_over_frames >= options.min_line_seen;
   }
-  DamageMapEvaluation e =
-      ScoreDamageMap(truth, predicted, origin, sightings, options, truth_path.string(), predicted_path.string());
+  // The map shares its cameras' placement error: measured on them, removed before matching.
+  std::optional<CameraPlacement> placement;
+  const fs::path cameras_csv = predicted_path.parent_path() / "cameras.csv";
+  if (options.remove_placement_offset && fs::exists(cameras_csv))
+    placement = ReadCameraPlacement(cameras_csv, survey_dir / "truth/trajectory.tum", origin);
+  DamageMapEvaluation e = ScoreDamageMap(truth, predicted, origin, sightings, options, truth_path.string(),
+                                         predicted_path.string(), placement ? &*placement : nullptr);
+  e.placement_frames = placement ? static_cast<int>(placement->by_frame.size()) : 0;
   e.frames = static_cast<int>(survey.frames.size());
   return e;
 }

@@ -45,6 +45,10 @@ struct DamageMapEvalOptions {
   /// A truth crack is also seen whole when the frames together saw this share of its line (its
   /// mask pixels placed on the map with the true disparity and pose, within crack_sample_m · 2).
   double min_line_seen = 0.95;
+  /// Remove the cameras' mean placement error (<output>/cameras.csv against the truth poses) from
+  /// the map before matching: a biased GNSS moves the whole map, which overlap matching would
+  /// otherwise count as misses. Absolute centroid errors are reported either way.
+  bool remove_placement_offset = true;
   /// Fixed tolerances of the summaries: |max depth error| (m), |area error| and |volume error| (%).
   double depth_tolerance_m = 0.010;
   double area_tolerance_pct = 10;
@@ -84,8 +88,12 @@ struct TruthSighting {
 using TruthSightings = std::map<int, TruthSighting>;
 
 /// Adds one frame's truth instance mask (CV_16UC1, 0 = background, else the truth feature id).
-/// Throws std::invalid_argument on another image type.
-void AddFrameSightings(const cv::Mat& masks, const DamageMapEvalOptions& options, TruthSightings* sightings);
+/// With a truth disparity (CV_32FC1, px) and a finite `max_range_m`, a pixel farther than
+/// `max_range_m` (Z = bf_px_m / disparity) counts as cut like a border pixel: the damage stage did
+/// not look beyond that range in the frame. Throws std::invalid_argument on another image type.
+void AddFrameSightings(const cv::Mat& masks, const DamageMapEvalOptions& options, TruthSightings* sightings,
+                       const cv::Mat& truth_disparity_px = cv::Mat(), double bf_px_m = 0,
+                       double max_range_m = std::numeric_limits<double>::infinity());
 
 /// Adds one frame's mask pixels of the truth ids in `ids` to `points` (by id), placed on the map
 /// (x east, y north of the truth's ENU) with the frame's true disparity (px), camera
@@ -113,7 +121,9 @@ struct PotholeMatch {
   bool scored = true;  ///< false: the truth pothole is partial or smaller than min_pothole_diameter_m
   double overlap = 0;  ///< intersection / min(area_predicted, area_truth), road plane
   double iou = 0;
-  double centroid_error_m = 0;  ///< horizontal distance between the polygons' area centroids
+  double centroid_error_m = 0;  ///< horizontal distance between the polygons' area centroids, the map's
+                                ///< placement offset removed (DamageMapEvaluation::placement_offset)
+  double absolute_centroid_error_m = 0;  ///< the same as the map states it (offset kept)
   std::optional<bool> floor_visible;
   double truth_max_depth_m = kNoValue, truth_area_m2 = kNoValue, truth_volume_m3 = kNoValue;
   double max_depth_m = kNoValue, area_m2 = kNoValue, volume_m3 = kNoValue;
@@ -203,7 +213,12 @@ struct DamageMapEvaluation {
   std::vector<MissedDamage> pothole_misses;
   std::vector<DuplicateDamage> pothole_duplicates;
   std::vector<FalseDamage> pothole_false_positives;
-  ErrorSummary centroid_error_m, iou, depth_error_mm, area_error_pct, volume_error_pct;
+  /// The cameras' mean horizontal placement error (ours − truth, east and north, m). Each damage
+  /// is moved back by the mean error of the cameras that observed it before matching. Zero when
+  /// not measured.
+  cv::Point2d placement_offset_m{0, 0};
+  int placement_frames = 0;  ///< cameras the offset was measured on (0: not measured)
+  ErrorSummary centroid_error_m, absolute_centroid_error_m, iou, depth_error_mm, area_error_pct, volume_error_pct;
   int floor_hidden = 0;  ///< scored matches whose floor the map says it did not see
 
   std::vector<CrackMatch> crack_matches;
@@ -226,10 +241,27 @@ struct DamageMapEvaluation {
 /// mean_diameter_m, area_m2, max_depth_m, volume_m3 (numbers); cracks length_m. Predicted features
 /// need an integer id and a type ("pothole", "crack", "other"); their numbers may be null or absent.
 /// Throws rs::InputError naming `truth_name` or `predicted_name` and the feature on a bad one.
+/// The horizontal placement error (ours − truth, east and north, m) of each georeferenced camera.
+struct CameraPlacement {
+  std::map<int64_t, cv::Point2d> by_frame;
+  cv::Point2d mean{0, 0};
+};
+
+/// With `placement`, each predicted damage is moved back by the mean placement error of the cameras
+/// that observed it (its "observation_frames"; the overall mean when none is known) before matching:
+/// the georeference's error, which the map inherits and which the georeference's own evaluation
+/// measures, is kept apart from the map's. Absolute centroid errors keep it.
 DamageMapEvaluation ScoreDamageMap(const geojson::FeatureCollection& truth, const geojson::FeatureCollection& predicted,
                                    const EnuOrigin& origin, const TruthSightings& sightings,
                                    const DamageMapEvalOptions& options, const std::string& truth_name = "truth",
-                                   const std::string& predicted_name = "predicted");
+                                   const std::string& predicted_name = "predicted",
+                                   const CameraPlacement* placement = nullptr);
+
+/// The run's georeferenced cameras (<output>/cameras.csv, rows with status "visual") against the
+/// truth poses (truth/trajectory.tum, row k = frame k) in the truth's ENU. Throws rs::InputError
+/// naming the file and line.
+CameraPlacement ReadCameraPlacement(const std::filesystem::path& cameras_csv, const std::filesystem::path& truth_tum,
+                                    const EnuOrigin& origin);
 
 /// Reads truth/georeference.json's origin. Throws rs::InputError naming the file.
 EnuOrigin ReadEnuOrigin(const std::filesystem::path& georeference_json);

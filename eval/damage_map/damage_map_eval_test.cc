@@ -327,6 +327,20 @@ TEST(DamageMapEval, SightingsFromMasks) {
   EXPECT_THROW(AddFrameSightings(cv::Mat(4, 4, CV_8UC1), o, &s), std::invalid_argument);
 }
 
+// A damage beyond the range the damage stage analysed in a frame is not seen whole there.
+TEST(DamageMapEval, SightingsStopAtTheAnalysedRange) {
+  DamageMapEvalOptions o;
+  cv::Mat masks(80, 100, CV_16UC1, cv::Scalar(0));
+  masks(cv::Rect(40, 10, 10, 10)).setTo(1);  // far: 10 m
+  masks(cv::Rect(40, 50, 10, 10)).setTo(2);  // near: 5 m
+  cv::Mat disparity(80, 100, CV_32FC1, cv::Scalar(20));  // bf = 100 px·m: Z = 5 m
+  disparity(cv::Rect(0, 0, 100, 40)).setTo(10);         // Z = 10 m
+  TruthSightings s;
+  AddFrameSightings(masks, o, &s, disparity, 100, 8.0);
+  EXPECT_EQ(s[1].Sight(), TruthSight::kPartial);
+  EXPECT_EQ(s[2].Sight(), TruthSight::kWhole);
+}
+
 TEST(DamageMapEval, BadFeaturesNameTheFile) {
   geojson::FeatureCollection truth, pred;
   truth.features.push_back(Circle(0, 0, 0.25, TruthPothole(1, 0.25)));

@@ -6,6 +6,7 @@
 #include "stages/damage_map/footprint_overlap.h"
 #include "stages/damage_map/fuse_crack.h"
 #include "stages/damage_map/fuse_depression.h"
+#include "stages/damage_map/view_coverage.h"
 
 namespace rs {
 namespace {
@@ -153,6 +154,34 @@ TEST(GradeMappedDamage, GradesTheFusedFigures) {
   EXPECT_EQ(m.severity, "medium");
   EXPECT_TRUE(m.intervention.needed);  // ≥ 40 mm deep and ≥ 300 mm wide
   EXPECT_NE(m.astm.rule.find("45 mm"), std::string::npos) << m.astm.rule;
+}
+
+
+// A nadir camera 4 m above the ENU origin (x east, y south in the image): what it has in view.
+TEST(ViewCoverage, InViewNeedsFrontImageAndAnalysedRange) {
+  RectifiedStereo cam;
+  cam.f_px = 100;
+  cam.cx_px = 50;
+  cam.cy_px = 50;
+  cam.baseline_m = 0.1;
+  cam.width = cam.height = 101;
+  ExaminedView v;
+  v.frame = 3;
+  v.camera_from_enu.linear() << 1, 0, 0, 0, -1, 0, 0, 0, -1;  // camera from ENU: looking down
+  v.camera_from_enu.translation() = Eigen::Vector3d(0, 0, 4);
+  EXPECT_TRUE(InView(v, cam, {0, 0, 0}, 2));
+  EXPECT_TRUE(InView(v, cam, {1.9, 1.9, 0}, 2));    // u = v = 97.5 px
+  EXPECT_FALSE(InView(v, cam, {1.98, 0, 0}, 2));    // u = 99.5 px: within the border
+  EXPECT_FALSE(InView(v, cam, {0, 0, 5}, 2));       // behind the camera
+  v.analysed_range_m = 3.5;
+  EXPECT_FALSE(InView(v, cam, {0, 0, 0}, 2));  // 4 m away: beyond the analysed range
+  EXPECT_EQ(FramesInView({v}, cam, {0, 0, 1}, 2), (std::vector<int64_t>{3}));
+}
+
+TEST(ViewCoverage, PolylineMidpointIsHalfwayAlong) {
+  const Eigen::Vector3d m = PolylineMidpoint({{0, 0, 0}, {1, 0, 0}, {1, 3, 0}});
+  EXPECT_NEAR(m.x(), 1, 1e-12);
+  EXPECT_NEAR(m.y(), 1, 1e-12);
 }
 
 }  // namespace
