@@ -112,6 +112,7 @@ void CheckWithGdal(const fs::path& dir) {
   const fs::path gpkg = dir / "damage.gpkg";
   const auto conv = RunShell("ogr2ogr -f GPKG " + gpkg.string() + " " + geojson.string());
   ASSERT_EQ(conv.exit_code, 0) << conv.output;
+  EXPECT_EQ(conv.output.find("Warning"), std::string::npos) << "every field converts as it is: " << conv.output;
   const auto back = RunShell("ogrinfo -ro -al -so " + gpkg.string());
   EXPECT_NE(back.output.find("Feature Count: " + std::to_string(features)), std::string::npos) << back.output;
 }

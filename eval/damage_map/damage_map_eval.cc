@@ -751,13 +751,17 @@ double AnalysedRange(const fs::path& detections_json) {
 cv::Point2d ShiftBack(PlaneFeature& f, const CameraPlacement& placement) {
   cv::Point2d sum(0, 0);
   int n = 0;
-  if (const auto it = f.properties->find("observation_frames"); it != f.properties->end() && it->is_array())
-    for (const auto& frame : *it)
-      if (frame.is_number_integer())
-        if (const auto c = placement.by_frame.find(frame.get<int64_t>()); c != placement.by_frame.end()) {
-          sum += c->second;
-          ++n;
-        }
+  std::vector<int64_t> frames;  // "12;13;14"
+  if (const auto it = f.properties->find("observation_frames"); it != f.properties->end() && it->is_string()) {
+    std::stringstream list(it->get<std::string>());
+    for (std::string item; std::getline(list, item, ';');)
+      if (!item.empty() && item.find_first_not_of("0123456789") == std::string::npos) frames.push_back(std::stoll(item));
+  }
+  for (int64_t frame : frames)
+    if (const auto c = placement.by_frame.find(frame); c != placement.by_frame.end()) {
+      sum += c->second;
+      ++n;
+    }
   const cv::Point2d shift = n > 0 ? sum / n : placement.mean;
   for (auto& ring : f.rings)
     for (auto& q : ring) q -= shift;

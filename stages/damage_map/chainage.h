@@ -11,8 +11,9 @@ namespace rs {
 class Centreline {
  public:
   /// `track` in flight order (local ENU); points closer than `min_step_m` to the last kept point
-  /// are dropped (hovering, a stopped car).
-  explicit Centreline(const std::vector<Eigen::Vector3d>& track, double min_step_m = 0.1);
+  /// are dropped (hovering, a stopped car). Passes of the track within `same_road_m` of each other
+  /// (about half a lane) are one road, referenced on its first pass.
+  explicit Centreline(const std::vector<Eigen::Vector3d>& track, double min_step_m = 0.1, double same_road_m = 2.0);
 
   bool valid() const { return points_.size() >= 2; }
   double length_m() const { return cumulative_.empty() ? 0 : cumulative_.back(); }
@@ -27,6 +28,7 @@ class Centreline {
  private:
   std::vector<Eigen::Vector2d> points_;
   std::vector<double> cumulative_;
+  double same_road_m_ = 2.0;
 };
 
 }  // namespace rs

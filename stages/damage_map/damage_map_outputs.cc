@@ -49,8 +49,9 @@ const std::vector<std::string>& CsvFields() {
 }  // namespace
 
 nlohmann::json DamageProperties(const MappedDamage& m, const std::vector<MapObservation>& obs) {
-  nlohmann::json frames = nlohmann::json::array();
-  for (int i : m.members) frames.push_back(obs[i].frame);
+  // A text list ("12;13;14"): list-typed fields do not survive conversion to GeoPackage or Shapefile.
+  std::string frames;
+  for (int i : m.members) frames += (frames.empty() ? "" : ";") + std::to_string(obs[i].frame);
   const bool crack = m.type == "crack";
   return {{"id", m.id},
           {"type", m.type},

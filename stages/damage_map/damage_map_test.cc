@@ -142,6 +142,17 @@ TEST(Centreline, ChainageAlongAndOffsetRightOfTravel) {
   EXPECT_NEAR(s.chainage_m, -2.0, 1e-9);
 }
 
+TEST(Centreline, OutAndBackIsReferencedOnTheFirstPass) {
+  // East along y = 0 to x = 10, then back west along y = 0.5.
+  std::vector<Eigen::Vector3d> track;
+  for (int i = 0; i <= 100; ++i) track.emplace_back(0.1 * i, 0, 0);
+  for (int i = 100; i >= 0; --i) track.emplace_back(0.1 * i, 0.5, 0);
+  const Centreline line(track);
+  const auto s = line.StationOf({3.0, 0.45, 0});  // nearer the return pass
+  EXPECT_NEAR(s.chainage_m, 3.0, 1e-9);
+  EXPECT_NEAR(s.offset_m, -0.45, 1e-9);  // left of the first pass's travel
+}
+
 TEST(GradeMappedDamage, GradesTheFusedFigures) {
   MappedDamage m;
   m.type = "pothole";
