@@ -9,7 +9,6 @@
 #include <opencv2/core/eigen.hpp>
 
 #include <algorithm>
-#include <fstream>
 #include <sstream>
 #include <cmath>
 #include <set>
@@ -17,6 +16,8 @@
 #include <variant>
 
 #include "eval/damage/sim_truth.h"
+#include "eval/georeference/georeference_eval.h"
+#include "formats/damage/detections_file.h"
 #include "formats/trajectory/tum_trajectory.h"
 #include "formats/input_error.h"
 #include "survey/atomic_file.h"
@@ -709,42 +710,29 @@ double LineSeenShare(const std::vector<cv::Point2d>& line, const std::vector<cv:
                      double step) {
   if (line.size() < 2 || seen.empty()) return 0;
   // Seen points hashed on a tol grid: a sample is covered by a point in its 3 × 3 cells.
-  std::set<std::pair<int64_t, int64_t>> cells;
-  std::map<std::pair<int64_t, int64_t>, std::vector<cv::Point2d>> grid;
   const auto cell = [tol](const cv::Point2d& p) {
     return std::make_pair(static_cast<int64_t>(std::floor(p.x / tol)), static_cast<int64_t>(std::floor(p.y / tol)));
   };
+  std::map<std::pair<int64_t, int64_t>, std::vector<cv::Point2d>> grid;
   for (const auto& p : seen) grid[cell(p)].push_back(p);
-  int samples = 0, covered = 0;
-  for (size_t i = 1; i < line.size(); ++i) {
-    const cv::Point2d a = line[i - 1], b = line[i];
-    const int n = std::max(1, static_cast<int>(std::ceil(cv::norm(b - a) / step)));
-    for (int k = (i == 1 ? 0 : 1); k <= n; ++k) {
-      const cv::Point2d q = a + (b - a) * (static_cast<double>(k) / n);
-      const auto [cx, cy] = cell(q);
-      bool hit = false;
-      for (int64_t dx = -1; dx <= 1 && !hit; ++dx)
-        for (int64_t dy = -1; dy <= 1 && !hit; ++dy)
-          if (const auto it = grid.find({cx + dx, cy + dy}); it != grid.end())
-            for (const auto& p : it->second)
-              if (cv::norm(p - q) <= tol) {
-                hit = true;
-                break;
-              }
-      ++samples;
-      covered += hit;
-    }
-  }
-  return samples ? static_cast<double>(covered) / samples : 0;
+  const auto covered = [&](const cv::Point2d& q) {
+    const auto [cx, cy] = cell(q);
+    for (int64_t dx = -1; dx <= 1; ++dx)
+      for (int64_t dy = -1; dy <= 1; ++dy)
+        if (const auto it = grid.find({cx + dx, cy + dy}); it != grid.end())
+          for (const auto& p : it->second)
+            if (cv::norm(p - q) <= tol) return true;
+    return false;
+  };
+  const std::vector<cv::Point2d> samples = SampleLine(line, step);
+  const auto n = std::count_if(samples.begin(), samples.end(), covered);
+  return static_cast<double>(n) / static_cast<double>(samples.size());
 }
 
 // The range the damage stage analysed in a frame (its detections.json); infinite when not stated.
 double AnalysedRange(const fs::path& detections_json) {
-  if (!fs::exists(detections_json)) return std::numeric_limits<double>::infinity();
-  const json j = ReadJsonFile(detections_json);
-  const auto it = j.find("analysed_range_m");
-  return it != j.end() && it->is_number() && it->get<double>() > 0 ? it->get<double>()
-                                                                    : std::numeric_limits<double>::infinity();
+  return fs::exists(detections_json) ? ReadFrameDetections(detections_json).analysed_range_m
+                                     : std::numeric_limits<double>::infinity();
 }
 
 // Moves a predicted feature back by the mean placement error of the cameras that observed it; the shift.
@@ -1183,40 +1171,15 @@ json DamageMapEvaluation::ToJson() const {
 
 CameraPlacement ReadCameraPlacement(const fs::path& cameras_csv, const fs::path& truth_tum, const EnuOrigin& origin) {
   const Trajectory truth = ReadTumTrajectory(truth_tum);
-  std::ifstream in(cameras_csv);
-  if (!in) throw InputError(InputLocation::File(cameras_csv.string()), "cannot open");
-  std::string line;
-  std::getline(in, line);
-  std::vector<std::string> header;
-  for (std::stringstream ss(line); std::getline(ss, line, ',');) header.push_back(line);
-  const auto column = [&](const char* name) {
-    const auto it = std::find(header.begin(), header.end(), name);
-    if (it == header.end())
-      throw InputError(InputLocation::Line(cameras_csv.string(), 1), fmt::format("no column \"{}\"", name));
-    return static_cast<size_t>(it - header.begin());
-  };
-  const size_t c_frame = column("frame"), c_lat = column("lat_deg"), c_lon = column("lon_deg"),
-               c_status = column("status");
-  const Converter conv(origin);
+  const GeographicLib::LocalCartesian enu(origin.lat_deg, origin.lon_deg, origin.h_ellipsoid_m);
   CameraPlacement out;
   cv::Point2d sum(0, 0);
-  int row = 1;
-  while (std::getline(in, line)) {
-    ++row;
-    std::vector<std::string> f;
-    for (std::stringstream ss(line); std::getline(ss, line, ',');) f.push_back(line);
-    if (f.size() < header.size()) throw InputError(InputLocation::Line(cameras_csv.string(), row), "too few columns");
-    if (f[c_status] != "visual") continue;
-    try {
-      const size_t k = std::stoul(f[c_frame]);
-      if (k >= truth.poses.size()) continue;
-      const cv::Point2d ours = conv.ToEnu({std::stod(f[c_lon]), std::stod(f[c_lat]), std::nullopt});
-      const Eigen::Vector3d t = truth.poses[k].T_world_frame.translation();
-      out.by_frame[static_cast<int64_t>(k)] = ours - cv::Point2d(t.x(), t.y());
-      sum += out.by_frame[static_cast<int64_t>(k)];
-    } catch (const std::logic_error&) {
-      throw InputError(InputLocation::Line(cameras_csv.string(), row), "frame, lat_deg or lon_deg is not a number");
-    }
+  for (const EnuCamera& c : ReadOurCameras(cameras_csv, enu)) {
+    if (c.frame < 0 || c.frame >= static_cast<int64_t>(truth.poses.size())) continue;
+    const Eigen::Vector3d t = truth.poses[c.frame].T_world_frame.translation();
+    const cv::Point2d error(c.p_enu.x() - t.x(), c.p_enu.y() - t.y());
+    out.by_frame[c.frame] = error;
+    sum += error;
   }
   if (!out.by_frame.empty()) out.mean = sum / static_cast<double>(out.by_frame.size());
   return out;

@@ -57,7 +57,8 @@ Eigen::Matrix3d FromYprDeg(double yaw, double pitch, double roll) {
       .toRotationMatrix();
 }
 
-// cameras.csv rows with status visual, into the truth's ENU frame.
+}  // namespace
+
 std::vector<EnuCamera> ReadOurCameras(const fs::path& csv, const GeographicLib::LocalCartesian& enu) {
   std::ifstream in(csv);
   if (!in) throw InputError(InputLocation::File(csv.string()), "cannot open");
@@ -73,6 +74,7 @@ std::vector<EnuCamera> ReadOurCameras(const fs::path& csv, const GeographicLib::
     if (f[11] != "visual") continue;
     try {
       EnuCamera c;
+      c.frame = std::stoll(f[0]);
       c.t_ns = std::stoll(f[1]);
       enu.Forward(std::stod(f[5]), std::stod(f[6]), std::stod(f[7]), c.p_enu.x(), c.p_enu.y(), c.p_enu.z());
       if (!f[8].empty()) c.R_ned_body = FromYprDeg(std::stod(f[10]), std::stod(f[9]), std::stod(f[8]));
@@ -83,6 +85,8 @@ std::vector<EnuCamera> ReadOurCameras(const fs::path& csv, const GeographicLib::
   }
   return out;
 }
+
+namespace {
 
 // The frame priors ingest wrote (the newest run's, when the cache holds several).
 fs::path FindFramePriors(const fs::path& output_dir) {

@@ -13,6 +13,10 @@
 #include <Eigen/Geometry>
 #include <nlohmann/json.hpp>
 
+namespace GeographicLib {
+class LocalCartesian;
+}
+
 namespace rs {
 
 /// A camera as an estimate gives it, in the truth's ENU frame.
@@ -20,7 +24,12 @@ struct EnuCamera {
   int64_t t_ns = 0;
   Eigen::Vector3d p_enu = Eigen::Vector3d::Zero();
   std::optional<Eigen::Matrix3d> R_ned_body;  ///< body attitude; absent: angles not scored
+  int64_t frame = -1;                         ///< cameras.csv's frame id (-1: not read from it)
 };
+
+/// cameras.csv rows with status visual, placed in the local ENU frame `enu`. Throws InputError
+/// naming the file and line on a malformed row.
+std::vector<EnuCamera> ReadOurCameras(const std::filesystem::path& csv, const GeographicLib::LocalCartesian& enu);
 
 /// Camera-centre and attitude errors against truth.
 struct CameraErrors {

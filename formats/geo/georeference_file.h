@@ -27,7 +27,13 @@ struct GeoreferenceFile {
 
   /// A SLAM-world point in the local ENU frame.
   Eigen::Vector3d ToEnu(const Eigen::Vector3d& p_slam) const { return scale * (R * p_slam) + t; }
-  Eigen::Vector3d FromEnu(const Eigen::Vector3d& p_enu) const { return R.transpose() * (p_enu - t) / scale; }
+  /// The inverse similarity: local ENU -> SLAM world.
+  Eigen::Affine3d SlamFromEnu() const {
+    Eigen::Affine3d a = Eigen::Affine3d::Identity();
+    a.linear() = R.transpose() / scale;
+    a.translation() = -R.transpose() * t / scale;
+    return a;
+  }
   /// The output CRS this file names (PROJ objects: build once, reuse).
   std::unique_ptr<OutputCrs> MakeCrs() const;
 };

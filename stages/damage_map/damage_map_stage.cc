@@ -46,10 +46,7 @@ PlacedSurvey PlaceSurvey(StageContext& ctx, const GeoreferenceFile& geo, const D
   const fs::path damage_dir = ctx.input_dir("damage");
   PlacedSurvey s;
   s.camera = RectifiedStereoOf(calib);
-  // ENU -> SLAM world (the georeference's inverse similarity); the camera pose then takes it to the camera.
-  Eigen::Affine3d slam_from_enu = Eigen::Affine3d::Identity();
-  slam_from_enu.linear() = geo.R.transpose() / geo.scale;
-  slam_from_enu.translation() = -geo.R.transpose() * geo.t / geo.scale;
+  const Eigen::Affine3d slam_from_enu = geo.SlamFromEnu();
   for (const FrameRecord& f : frames) {
     if (!ctx.frame_selection().Contains(f.id.value)) continue;
     s.left_image[f.id.value] = f.left;
@@ -94,7 +91,8 @@ struct LeftOut {
 };
 
 // Merges the views of each damage and fuses them; ids follow chainage (then offset).
-std::vector<MappedDamage> BuildMap(const PlacedSurvey& s, const DamageMapOptions& o, LeftOut* dropped) {
+std::vector<MappedDamage> BuildMap(const PlacedSurvey& s, const Centreline& line, const DamageMapOptions& o,
+                                   LeftOut* dropped) {
   std::vector<int> depressions, cracks;
   for (int i = 0; i < static_cast<int>(s.obs.size()); ++i)
     (s.obs[i].detection.type == "crack" ? cracks : depressions).push_back(i);
@@ -123,7 +121,6 @@ std::vector<MappedDamage> BuildMap(const PlacedSurvey& s, const DamageMapOptions
   std::erase_if(out, [&](const MappedDamage& m) { return m.detection_rate < o.min_detection_rate; });
   dropped->unrepeated = static_cast<int>(seen - out.size());
 
-  const Centreline line(s.track);
   for (MappedDamage& m : out) {
     const auto st = line.StationOf(m.centroid_enu);
     m.chainage_m = st.chainage_m;
@@ -252,8 +249,9 @@ void DamageMapStage::Run(StageContext& ctx, const DamageMapOptions& o) const {
     return;
   }
   const PlacedSurvey placed = PlaceSurvey(ctx, geo, o);
+  const Centreline line(placed.track);
   LeftOut dropped;
-  const std::vector<MappedDamage> damages = BuildMap(placed, o, &dropped);
+  const std::vector<MappedDamage> damages = BuildMap(placed, line, o, &dropped);
   const GeographicLib::LocalCartesian enu(geo.origin.lat_deg, geo.origin.lon_deg, geo.origin.h_ellipsoid_m);
   const auto crs = geo.MakeCrs();
   WriteDamageGeoJson(ctx.out_dir() / "damage.geojson", damages, placed.obs, enu);
@@ -267,7 +265,6 @@ void DamageMapStage::Run(StageContext& ctx, const DamageMapOptions& o) const {
                      placed.left_image.at(best.frame), best);
     }
   const nlohmann::json counts = CountsOf(damages);
-  const Centreline line(placed.track);
   const double sigma_h = std::hypot(geo.sigma_enu_m.x(), geo.sigma_enu_m.y());
   WriteJsonAtomic(ctx.out_dir() / "damage_map.json",
                   {{"format", "roadsurvey-damage-map-v1"},
