@@ -7,13 +7,11 @@ namespace rs {
 std::vector<MapObservation> PlaceDetections(const FrameDetections& frame, const CameraToEnu& to_enu, int width,
                                             int height, int border_px) {
   std::vector<MapObservation> out;
-  const Eigen::Vector3d camera = to_enu(Eigen::Vector3d::Zero());
   for (const DamageDetection& d : frame.detections) {
     if (d.outline_cam.size() < 3) continue;  // no outline on the road: nothing to place
     MapObservation o;
     o.frame = frame.frame;
     o.detection = d;
-    o.camera_enu = camera;
     for (const auto& p : d.outline_cam) o.outline_enu.push_back(to_enu(p));
     for (const auto& px : d.outline_px)
       if (px.x() <= border_px || px.y() <= border_px || px.x() >= width - 1 - border_px ||

@@ -17,7 +17,6 @@ struct MapObservation {
   int64_t frame = 0;
   DamageDetection detection;                ///< the frame's own measurement
   std::vector<Eigen::Vector3d> outline_enu;  ///< outline on the road surface
-  Eigen::Vector3d camera_enu = Eigen::Vector3d::Zero();
   bool complete = true;  ///< the outline stays clear of the image border: the whole damage is in view
 };
 
