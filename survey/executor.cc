@@ -192,6 +192,8 @@ std::map<std::string, std::string> ComputeKeys(const StageRegistry& registry, co
     const StageInfo& info = stage->info();
     KeyHasher h;
     h.Add("stage").Add(info.name).Add(static_cast<int64_t>(info.version)).Add(options.at(info.name).dump());
+    // Only when present: the keys of stages without one stay as they were.
+    if (const std::string extra = stage->ExtraKey(options.at(info.name)); !extra.empty()) h.Add("extra").Add(extra);
     AddFrameSelection(h, frames);
     std::map<std::string, std::string> inputs;
     for (const auto& artifact : info.inputs)

@@ -26,6 +26,13 @@ class KeyHasher {
   void* state_;
 };
 
+/// SHA-256 of `bytes` as 64 lowercase hex digits (FIPS 180-4): the published digest of a file
+/// that others check with sha256sum (a learned model's), where a cache key alone would do for xxh3.
+std::string Sha256Hex(std::string_view bytes);
+
+/// SHA-256 of a file's contents; throws std::runtime_error naming the file when it cannot be read.
+std::string Sha256OfFile(const std::filesystem::path& path);
+
 /// The survey's own output folder as seen from an input's fingerprint: what a run writes there
 /// must not change the input's key, wherever the output folder lies.
 struct OutputExclusion {

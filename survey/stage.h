@@ -148,11 +148,15 @@ class Stage {
   virtual void Validate(const SurveyFile& survey, const nlohmann::json& merged, ValidationDepth depth,
                         ProblemList& problems) const {}
   virtual void Run(StageContext& ctx, const nlohmann::json& merged) const = 0;
+  /// What the outputs depend on beyond the inputs, options and version (a model file's digest),
+  /// as text for the cache key; empty = nothing.
+  virtual std::string ExtraKey(const nlohmann::json& merged) const { return {}; }
 };
 
 /// Base for concrete stages: Derived provides `static StageInfo Info()` and
 /// `void Run(StageContext&, const Options&) const`, and may provide
-/// `void ValidateInputs(const SurveyFile&, const Options&, ValidationDepth, ProblemList&) const`.
+/// `void ValidateInputs(const SurveyFile&, const Options&, ValidationDepth, ProblemList&) const`
+/// and `std::string ExtraKeyOf(const Options&) const`.
 /// Options provides `static const OptionTable<Options>& Table()` and `void Check() const`.
 template <class Derived, class Options>
 class TypedStage : public Stage {
@@ -170,8 +174,13 @@ class TypedStage : public Stage {
   void Run(StageContext& ctx, const nlohmann::json& merged) const override {
     static_cast<const Derived*>(this)->Run(ctx, Options::Table().FromJson(merged));
   }
+  std::string ExtraKey(const nlohmann::json& merged) const override {
+    return static_cast<const Derived*>(this)->ExtraKeyOf(Options::Table().FromJson(merged));
+  }
   /// Default: nothing to check before running.
   void ValidateInputs(const SurveyFile&, const Options&, ValidationDepth, ProblemList&) const {}
+  /// Default: the outputs depend on the inputs, options and version alone.
+  std::string ExtraKeyOf(const Options&) const { return {}; }
 };
 
 /// The stages a program knows, in registration order. No global state: the
