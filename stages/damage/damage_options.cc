@@ -1,6 +1,10 @@
 #include "stages/damage/damage_options.h"
 
+#include "stages/damage/cracks/crack_net.h"
+
 #include <fmt/format.h>
+
+#include <filesystem>
 
 namespace rs {
 namespace {
@@ -172,9 +176,30 @@ const OptionTable<CrackOptions>& CrackOptions::Table() {
   using O = CrackOptions;
   static const auto table =
       OptionTable<O>()
+  if (detector == Detector::kLearned) {
+    const std::filesystem::path path = ResolveCrackModelPath(model);
+    if (!std::filesystem::is_regular_file(path))
+      throw OptionError(fmt::format("damage.detector = learned needs the crack model, not found: {}", path.string()));
+  }
+  Require(learned_threshold >= 0, "learned_threshold", learned_threshold, ">=", "0", 0);
+  Require(learned_threshold < 1, "learned_threshold", learned_threshold, "<", "1", 1);
           .Add("enabled", &O::enabled, "look for cracks")
-          .AddEnum("detector", &O::detector, {{"ridge", O::Detector::kRidge}, {"blackhat", O::Detector::kBlackHat}},
-                   "crack evidence: multi-scale Hessian ridge with hysteresis, or morphological black-hat")
+          .AddEnum("detector", &O::detector,
+                   {{"auto", O::Detector::kAuto},
+                    {"learned", O::Detector::kLearned},
+                    {"ridge", O::Detector::kRidge},
+                    {"black-hat", O::Detector::kBlackHat},
+                    {"blackhat", O::Detector::kBlackHat}},  // the earlier spelling, still read
+                   "crack evidence: learned model (probability at its threshold), multi-scale Hessian ridge with "
+                   "hysteresis, or morphological black-hat; auto = learned without calibration when the model file "
+                   "exists, else classical")
+          .Add("model", &O::model,
+               "learned crack model (ONNX, its .json beside it); empty = the committed "
+               "stages/damage/cracks/model/crack_net.onnx")
+          .Add("learned_threshold", &O::learned_threshold,
+               "learned crack probability threshold (0 = the model's, chosen on a training hold-out)")
+          .Min(0)
+          .Below(1)
           .Add("ridge_min_sigma_px", &O::ridge_min_sigma_px, "smallest ridge scale without calibration (Gaussian σ)",
                "px")
           .Above(0)

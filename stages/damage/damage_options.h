@@ -90,11 +90,20 @@ struct SegmentOptions {
 /// Thin dark ridges (cracks) in the left image.
 struct CrackOptions {
   bool enabled = true;    ///< look for cracks at all
-  /// Crack evidence: kRidge = multi-scale Hessian valley less the gradient, each scale in robust
-  /// σ of its own texture, with hysteresis (ridge.h); kBlackHat = morphological black-hat with a
-  /// local level and oriented line support.
-  enum class Detector { kRidge, kBlackHat };
-  Detector detector = Detector::kRidge;
+  /// Crack evidence: kLearned = the learned model's probability (crack_net.h) at its threshold;
+  /// kRidge = multi-scale Hessian valley less the gradient, each scale in robust σ of its own
+  /// texture, with hysteresis (ridge.h); kBlackHat = morphological black-hat with a local level
+  /// and oriented line support; kAuto = kLearned in pixel units (no pixel sizes) when the model
+  /// file exists, else the classical detector (kRidge in pixel units; with pixel sizes the metric
+  /// black-hat, which measured better than the model on the simulator, docs/results/damage.md).
+  enum class Detector { kAuto, kLearned, kRidge, kBlackHat };
+  Detector detector = Detector::kAuto;
+  /// The learned model (ONNX, with its .json beside it); empty = the committed model
+  /// (stages/damage/cracks/model/crack_net.onnx in the source tree, else the installed copy).
+  std::string model;
+  /// Crack where the learned probability reaches this; 0 = the threshold chosen in training
+  /// (the model's .json, picked on a hold-out of the training data).
+  double learned_threshold = 0;
   /// Ridge scales without calibration: Gaussian σ from min to max in steps of √2; a dark line
   /// w px wide responds most at σ ≈ w/2 (2σ of the valley's curvature matches its width), px.
   double ridge_min_sigma_px = 1.0;

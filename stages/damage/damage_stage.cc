@@ -10,8 +10,11 @@
 #include "formats/image_file.h"
 #include "formats/stereo/calibration_yaml.h"
 #include "formats/stereo/image_io.h"
+#include "stages/damage/cracks/crack_net.h"
+#include "stages/damage/cracks/cracks.h"
 #include "stages/damage/output/damage_output.h"
 #include "survey/atomic_file.h"
+#include "survey/hash.h"
 
 namespace rs {
 namespace fs = std::filesystem;
@@ -52,7 +55,9 @@ const OptionTable<DamageStageOptions>& DamageStageOptions::Table() {
 StageInfo DamageStage::Info() {
   StageInfo info;
   info.name = "damage";
-  info.version = 2;  // 2: cracks carry outline_cam_m (their outline on the fitted road)
+  // 2: cracks carry outline_cam_m (their outline on the fitted road); 3: detections.json names
+  // the crack detector (crack.detector: auto, learned, ridge, black-hat)
+  info.version = 3;
   info.doc =
       "Per frame: robust 3-D road surface (obstacles removed), depth below the road, unsupervised damage "
       "segmentation, per-damage area, depth, volume, size, crack width/length, ASTM/FHWA severity.";
@@ -63,11 +68,24 @@ StageInfo DamageStage::Info() {
   return info;
 }
 
+std::string DamageStage::ExtraKeyOf(const DamageStageOptions& o) const {
+  const CrackOptions& c = o.damage.crack;
+  if (!c.enabled || ResolveCrackDetector(c, true) != CrackOptions::Detector::kLearned) return {};
+  const fs::path model = ResolveCrackModelPath(c.model);
+  try {
+    return "crack_model_sha256=" + Sha256OfFile(model);
+  } catch (const std::runtime_error&) {
+    return "crack_model_missing=" + model.string();  // the run fails naming it
+  }
+}
+
 void DamageStage::Run(StageContext& ctx, const DamageStageOptions& o) const {
   const auto frames = ReadFrameIndex(ctx.input_dir("frames") / "frames.csv");
   const StereoCalibration calib = ReadCalibrationYaml(ctx.input_dir("calibration") / "calibration.yaml");
   const RectifiedStereo geometry = RectifiedStereoOf(calib);
   const fs::path disparity_dir = ctx.input_dir("disparity");
+  const std::string crack_detector =
+      o.damage.crack.enabled ? CrackDetectorName(ResolveCrackDetector(o.damage.crack, true), true) : "none";
 
   ctx.ForEachFrame(
       frames,
@@ -93,6 +111,7 @@ void DamageStage::Run(StageContext& ctx, const DamageStageOptions& o) const {
         nlohmann::json detections = {{"frame", f.id.value},
                                      {"t_ns", f.t_ns},
                                      {"threshold_sigma", result.threshold_sigma},
+                                     {"crack_detector", crack_detector},
                                      // Damage farther than this was not looked for (null: no limit).
                                      {"analysed_range_m", std::isfinite(result.analysed_range_m)
                                                               ? nlohmann::json(result.analysed_range_m)

@@ -1,5 +1,6 @@
 #include "stages/damage/cracks/cracks.h"
 
+#include "stages/damage/cracks/crack_net.h"
 #include "stages/damage/cracks/ridge.h"
 #include "stages/damage/measure/measure.h"
 #include "survey/stats/order_statistic.h"
@@ -10,6 +11,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <stdexcept>
 
 namespace rs {
@@ -241,78 +243,24 @@ void RemoveStaircases(cv::Mat& skel) {
     }
 }
 
-}  // namespace
+// Evidence behind the candidate pixels, for the measurement: `response` (CV_8U) above
+// `level_med` (CV_8U) is the darkness profile whose area over its height gives the width;
+// classical: black-hat response, its local median and σ (k_sigma: the detection level);
+// learned: probability × 255 over a zero level.
+struct Evidence {
+  cv::Mat response, level_med, level_sigma;
+  double k_sigma = 1;
+  bool probability = false;
+};
 
-cv::Mat CrackResponse(const cv::Mat& image, const CrackOptions& o, const cv::Mat& pixel_size_m) {
-  const cv::Mat grey = Grey(image);
-  if (!pixel_size_m.empty() && (pixel_size_m.size() != grey.size() || pixel_size_m.type() != CV_32FC1))
-    throw std::invalid_argument("CrackResponse: pixel sizes must be CV_32F of the image's size");
-  return ResponseOfGrey(grey, pixel_size_m, o);
-}
-
-CrackDetection DetectCracks(const cv::Mat& image, const cv::Mat& road_mask, const cv::Mat& exclude,
-                            const cv::Mat& pixel_size_m, const CrackOptions& o, const cv::Mat& precomputed) {
-  if (image.empty() || image.depth() != CV_8U || (image.channels() != 1 && image.channels() != 3))
-    throw std::invalid_argument("DetectCracks: image must be 8-bit grey or BGR");
-  if (!precomputed.empty() && (precomputed.size() != image.size() || precomputed.type() != CV_8UC1))
-    throw std::invalid_argument("DetectCracks: response must be CV_8U of the image's size");
-  auto same = [&](const cv::Mat& m, int type) { return m.empty() || (m.size() == image.size() && m.type() == type); };
-  if (!same(road_mask, CV_8UC1) || !same(exclude, CV_8UC1) || !same(pixel_size_m, CV_32FC1))
-    throw std::invalid_argument("DetectCracks: masks must be CV_8U and pixel sizes CV_32F of the image's size");
-  const cv::Mat response = precomputed.empty() ? ResponseOfGrey(Grey(image), pixel_size_m, o) : precomputed;
-  cv::Mat search = road_mask.empty() ? cv::Mat(image.size(), CV_8U, cv::Scalar(255)) : (road_mask != 0);
-  if (!exclude.empty()) search &= (exclude == 0);
-
-  CrackDetection out;
-  out.labels = cv::Mat::zeros(image.size(), CV_16U);
-  // Robust level of the texture response (median + k·1.4826·MAD over the searched road), per
-  // cell: the coarse aggregate resolved near an oblique camera responds far more than the
-  // blurred road farther away, which one level per frame let through as "cracks".
-  std::vector<uchar> vals;
-  for (int v = 0; v < image.rows; v += 4) {
-    const uchar* sr = search.ptr<uchar>(v);
-    const uchar* rr = response.ptr<uchar>(v);
-    for (int u = 0; u < image.cols; u += 4)
-      if (sr[u]) vals.push_back(rr[u]);
-  }
-  double med = 0, sigma = 1;
-  if (!RobustLevel(vals, &med, &sigma)) return out;
-  out.response_threshold = med + o.k_sigma * sigma;
-  const cv::Mat grid = LocalLevelGrid(response, search, o, med, sigma);
-  const cv::Mat level_med = LevelMap(grid, 1, 0, image.size()), level_sigma = LevelMap(grid, 0, 1, image.size());
-
-  cv::Mat cand;
-  if (o.detector == CrackOptions::Detector::kRidge && pixel_size_m.empty()) {
-    std::vector<double> sigmas;
-    for (double s = o.ridge_min_sigma_px; s <= o.ridge_max_sigma_px * 1.001; s *= std::sqrt(2.0)) sigmas.push_back(s);
-    cv::Mat best_sigma;
-    const cv::Mat strength = RidgeStrength(Grey(image), search, sigmas, &best_sigma);
-    const int window = 2 * int(std::lround(2 * sigmas.back())) + 1;
-    const double searched = cv::countNonZero(search);
-    const double p_low = cv::countNonZero((strength > o.ridge_low_sigma) & search) / std::max(1.0, searched);
-    const cv::Mat seeded = Hysteresis(strength, search, o.ridge_low_sigma, o.ridge_high_sigma);
-    cand = CrackRegion(MeaningfulComponents(seeded, best_sigma, p_low, searched), best_sigma,
-                       Darkness(Grey(image), window), o.ridge_width_factor) &
-           search;
-  } else if (o.line_length_px > 0) {
-    // Pixels darker than their surroundings (response above the local median + 1 σ) where the
-    // line support stands out (its own local level + k σ).
-    const cv::Mat support = LineSupport(response, o.line_length_px);
-    std::vector<uchar> svals;
-    for (int v = 0; v < image.rows; v += 4) {
-      const uchar* sr = search.ptr<uchar>(v);
-      const uchar* rr = support.ptr<uchar>(v);
-      for (int u = 0; u < image.cols; u += 4)
-        if (sr[u]) svals.push_back(rr[u]);
-    }
-    double smed = 0, ssigma = 1;
-    RobustLevel(svals, &smed, &ssigma);
-    const cv::Mat sgrid = LocalLevelGrid(support, search, o, smed, ssigma);
-    cand = (response > LevelMap(grid, 1, 1, image.size())) & (support > LevelMap(sgrid, 1, o.k_sigma, image.size())) &
-           search;
-  } else {
-    cand = (response > LevelMap(grid, 1, o.k_sigma, image.size())) & search;
-  }
+// Closes the candidate pixels (CV_8U, non-zero = crack) and measures each component along its
+// skeleton; keeps the long, elongated, narrow ones as crack instances in `out` (labels, instances).
+// Shared by the classical and the learned detector.
+void MeasureComponents(cv::Mat cand, const Evidence& e, const cv::Mat& pixel_size_m, const CrackOptions& o,
+                       CrackDetection& out) {
+  const cv::Mat& response = e.response;
+  const cv::Mat& level_med = e.level_med;
+  const cv::Size image_size = cand.size();
   cv::morphologyEx(cand, cand, cv::MORPH_CLOSE, cv::getStructuringElement(cv::MORPH_ELLIPSE, {3, 3}));
   cv::Mat cc, stats, cent;
   const int n = cv::connectedComponentsWithStats(cand, cc, stats, cent, 8, CV_32S);
@@ -327,7 +275,7 @@ CrackDetection DetectCracks(const cv::Mat& image, const cv::Mat& road_mask, cons
     }
     cv::Rect box(stats.at<int>(i, cv::CC_STAT_LEFT) - 1, stats.at<int>(i, cv::CC_STAT_TOP) - 1,
                  stats.at<int>(i, cv::CC_STAT_WIDTH) + 2, stats.at<int>(i, cv::CC_STAT_HEIGHT) + 2);
-    box &= cv::Rect({}, image.size());
+    box &= cv::Rect({}, image_size);
     const cv::Mat comp = cc(box) == i;
     cv::Mat skel, dist;
     // Thinned from a smoothed outline: a ragged one grows spurs that add to the length.
@@ -397,10 +345,13 @@ CrackDetection DetectCracks(const cv::Mat& image, const cv::Mat& road_mask, cons
     d.id = ++next;
     d.type = DamageType::kCrack;
     d.pixel_count = cv::countNonZero(comp);
-    // Confidence: mean black-hat contrast relative to twice the detection level above the median.
-    const double contrast = cv::mean(response(box), comp)[0] - cv::mean(level_med(box), comp)[0];
-    const double box_sigma = cv::mean(level_sigma(box), comp)[0];
-    d.confidence = std::clamp(contrast / (2.0 * o.k_sigma * std::max(1.0, box_sigma)), 0.0, 1.0);
+    if (e.probability) {  // the mean learned probability
+      d.confidence = std::clamp(cv::mean(response(box), comp)[0] / 255.0, 0.0, 1.0);
+    } else {  // mean black-hat contrast relative to twice the detection level above the median
+      const double contrast = cv::mean(response(box), comp)[0] - cv::mean(level_med(box), comp)[0];
+      const double box_sigma = cv::mean(e.level_sigma(box), comp)[0];
+      d.confidence = std::clamp(contrast / (2.0 * e.k_sigma * std::max(1.0, box_sigma)), 0.0, 1.0);
+    }
     if (metric) {
       d.length_m = len_m;
       d.mean_width_m = wsum_m / nskel;
@@ -410,6 +361,117 @@ CrackDetection DetectCracks(const cv::Mat& image, const cv::Mat& road_mask, cons
     d.outline_px = OutlineOf(out.labels, d.id, box);
     out.instances.push_back(std::move(d));
   }
+}
+
+}  // namespace
+
+CrackOptions::Detector ResolveCrackDetector(const CrackOptions& o, bool calibrated) {
+  using D = CrackOptions::Detector;
+  if (o.detector != D::kAuto) return o.detector;
+  // With pixel sizes the metric black-hat stays the default: on the simulator's frames it
+  // measured better than the model trained on patches (docs/results/damage.md).
+  if (calibrated) return D::kRidge;
+  return std::filesystem::exists(ResolveCrackModelPath(o.model)) ? D::kLearned : D::kRidge;
+}
+
+const char* CrackDetectorName(CrackOptions::Detector d, bool calibrated) {
+  using D = CrackOptions::Detector;
+  switch (d) {
+    case D::kAuto: return "auto";
+    case D::kLearned: return "learned";
+    case D::kRidge: return calibrated ? "black-hat" : "ridge";  // the ridge runs in pixel units only
+    case D::kBlackHat: return "black-hat";
+  }
+  return "?";
+}
+
+cv::Mat CrackResponse(const cv::Mat& image, const CrackOptions& o, const cv::Mat& pixel_size_m) {
+  const cv::Mat grey = Grey(image);
+  if (!pixel_size_m.empty() && (pixel_size_m.size() != grey.size() || pixel_size_m.type() != CV_32FC1))
+    throw std::invalid_argument("CrackResponse: pixel sizes must be CV_32F of the image's size");
+  if (ResolveCrackDetector(o, !pixel_size_m.empty()) == CrackOptions::Detector::kLearned) {
+    cv::Mat p8;
+    CrackProbability(grey, ResolveCrackModelPath(o.model)).convertTo(p8, CV_8U, 255.0);
+    return p8;
+  }
+  return ResponseOfGrey(grey, pixel_size_m, o);
+}
+
+CrackDetection DetectCracks(const cv::Mat& image, const cv::Mat& road_mask, const cv::Mat& exclude,
+                            const cv::Mat& pixel_size_m, const CrackOptions& o, const cv::Mat& precomputed) {
+  if (image.empty() || image.depth() != CV_8U || (image.channels() != 1 && image.channels() != 3))
+    throw std::invalid_argument("DetectCracks: image must be 8-bit grey or BGR");
+  if (!precomputed.empty() && (precomputed.size() != image.size() || precomputed.type() != CV_8UC1))
+    throw std::invalid_argument("DetectCracks: response must be CV_8U of the image's size");
+  auto same = [&](const cv::Mat& m, int type) { return m.empty() || (m.size() == image.size() && m.type() == type); };
+  if (!same(road_mask, CV_8UC1) || !same(exclude, CV_8UC1) || !same(pixel_size_m, CV_32FC1))
+    throw std::invalid_argument("DetectCracks: masks must be CV_8U and pixel sizes CV_32F of the image's size");
+  const CrackOptions::Detector detector = ResolveCrackDetector(o, !pixel_size_m.empty());
+  const cv::Mat response = precomputed.empty() ? CrackResponse(image, o, pixel_size_m) : precomputed;
+  cv::Mat search = road_mask.empty() ? cv::Mat(image.size(), CV_8U, cv::Scalar(255)) : (road_mask != 0);
+  if (!exclude.empty()) search &= (exclude == 0);
+
+  CrackDetection out;
+  out.detector = detector;
+  out.labels = cv::Mat::zeros(image.size(), CV_16U);
+  if (detector == CrackOptions::Detector::kLearned) {
+    // The probability (× 255) at the model's threshold; its level is zero.
+    const CrackModelInfo& model = LoadCrackModel(ResolveCrackModelPath(o.model));
+    out.response_threshold = o.learned_threshold > 0 ? o.learned_threshold : model.threshold;
+    const cv::Mat cand = (response >= std::ceil(out.response_threshold * 255.0 - 1e-6)) & search;
+    const cv::Mat zero = cv::Mat::zeros(image.size(), CV_8U);
+    MeasureComponents(cand, {response, zero, zero, 1.0, true}, pixel_size_m, o, out);
+    return out;
+  }
+  // Robust level of the texture response (median + k·1.4826·MAD over the searched road), per
+  // cell: the coarse aggregate resolved near an oblique camera responds far more than the
+  // blurred road farther away, which one level per frame let through as "cracks".
+  std::vector<uchar> vals;
+  for (int v = 0; v < image.rows; v += 4) {
+    const uchar* sr = search.ptr<uchar>(v);
+    const uchar* rr = response.ptr<uchar>(v);
+    for (int u = 0; u < image.cols; u += 4)
+      if (sr[u]) vals.push_back(rr[u]);
+  }
+  double med = 0, sigma = 1;
+  if (!RobustLevel(vals, &med, &sigma)) return out;
+  out.response_threshold = med + o.k_sigma * sigma;
+  const cv::Mat grid = LocalLevelGrid(response, search, o, med, sigma);
+  const cv::Mat level_med = LevelMap(grid, 1, 0, image.size()), level_sigma = LevelMap(grid, 0, 1, image.size());
+
+  cv::Mat cand;
+  if (detector == CrackOptions::Detector::kRidge && pixel_size_m.empty()) {
+    std::vector<double> sigmas;
+    for (double s = o.ridge_min_sigma_px; s <= o.ridge_max_sigma_px * 1.001; s *= std::sqrt(2.0)) sigmas.push_back(s);
+    cv::Mat best_sigma;
+    const cv::Mat strength = RidgeStrength(Grey(image), search, sigmas, &best_sigma);
+    const int window = 2 * int(std::lround(2 * sigmas.back())) + 1;
+    const double searched = cv::countNonZero(search);
+    const double p_low = cv::countNonZero((strength > o.ridge_low_sigma) & search) / std::max(1.0, searched);
+    const cv::Mat seeded = Hysteresis(strength, search, o.ridge_low_sigma, o.ridge_high_sigma);
+    cand = CrackRegion(MeaningfulComponents(seeded, best_sigma, p_low, searched), best_sigma,
+                       Darkness(Grey(image), window), o.ridge_width_factor) &
+           search;
+  } else if (o.line_length_px > 0) {
+    // Pixels darker than their surroundings (response above the local median + 1 σ) where the
+    // line support stands out (its own local level + k σ).
+    const cv::Mat support = LineSupport(response, o.line_length_px);
+    std::vector<uchar> svals;
+    for (int v = 0; v < image.rows; v += 4) {
+      const uchar* sr = search.ptr<uchar>(v);
+      const uchar* rr = support.ptr<uchar>(v);
+      for (int u = 0; u < image.cols; u += 4)
+        if (sr[u]) svals.push_back(rr[u]);
+    }
+    double smed = 0, ssigma = 1;
+    RobustLevel(svals, &smed, &ssigma);
+    const cv::Mat sgrid = LocalLevelGrid(support, search, o, smed, ssigma);
+    cand = (response > LevelMap(grid, 1, 1, image.size())) & (support > LevelMap(sgrid, 1, o.k_sigma, image.size())) &
+           search;
+  } else {
+    cand = (response > LevelMap(grid, 1, o.k_sigma, image.size())) & search;
+  }
+  MeasureComponents(cand, {response, level_med, level_sigma, o.k_sigma, false}, pixel_size_m, o, out);
   return out;
 }
 
