@@ -44,6 +44,8 @@ Command SegmentCommand() {
               bool no_cracks = false;
               int min_area_px = SegmentOptions{}.min_area_px;
               double min_threshold_sigma = SegmentOptions{}.min_threshold_sigma;
+              int level_cell_px = SegmentOptions{}.level_cell_px;
+              double min_wall_steepness = SegmentOptions{}.min_wall_steepness;
               std::optional<double> road_level, sigma;
             };
             auto a = std::make_shared<Args>();
@@ -62,8 +64,15 @@ Command SegmentCommand() {
             app.add_option("--min-area-px", a->min_area_px, "smallest damage kept, px")->check(CLI::PositiveNumber);
             app.add_option("--min-threshold-sigma", a->min_threshold_sigma,
                            "threshold at least this many robust sigma below the road level");
+            app.add_option("--level-cell-px", a->level_cell_px,
+                           "cell of the local road level that follows ruts, sags and a crown (0 = one level)")
+                ->check(CLI::NonNegativeNumber);
+            app.add_option("--min-wall-steepness", a->min_wall_steepness,
+                           "a depression's wall slope at least this many road slope-noise sigma (0 = off)")
+                ->check(CLI::NonNegativeNumber);
             auto* level = app.add_option("--road-level", a->road_level,
-                                         "road level in the image's units (default: estimated, histogram mode)");
+                                         "road level in the image's units (default: estimated, histogram mode; "
+                                         "the local level then follows the road's shape from it)");
             auto* sigma = app.add_option("--sigma", a->sigma, "road noise in the image's units (with --road-level)")
                               ->check(CLI::PositiveNumber);
             level->needs(sigma);
@@ -72,6 +81,8 @@ Command SegmentCommand() {
               DamageOptions options;
               options.segment.min_area_px = a->min_area_px;
               options.segment.min_threshold_sigma = a->min_threshold_sigma;
+              options.segment.level_cell_px = a->level_cell_px;
+              options.segment.min_wall_steepness = a->min_wall_steepness;
               options.crack.enabled = !a->no_cracks;
               CheckAsOption([&] { options.Check(); });
               const cv::Mat transformed = ReadImageAnyDepth(a->input, true);

@@ -92,6 +92,8 @@ void SegmentOptions::Check() const {
   Require(invalid_fill_fraction > 0 && invalid_fill_fraction <= 1, "invalid_fill_fraction", invalid_fill_fraction, "in",
           "(0, 1]", 1);
   Require(morph_radius_px >= 0, "morph_radius_px", morph_radius_px, ">=", "0", 0);
+  Require(level_cell_px == 0 || level_cell_px >= 8, "level_cell_px", level_cell_px, ">=", "8 (or 0 = off)", 8);
+  Require(min_wall_steepness >= 0, "min_wall_steepness", min_wall_steepness, ">=", "0", 0);
   Require(rim_depth_m > 0, "rim_depth_m", rim_depth_m, ">", "0", 0);
   Require(rim_depth_fraction >= 0 && rim_depth_fraction < 1, "rim_depth_fraction", rim_depth_fraction, "in", "[0, 1)",
           0);
@@ -138,6 +140,12 @@ const OptionTable<SegmentOptions>& SegmentOptions::Table() {
           .Max(1)
           .Add("morph_radius_px", &O::morph_radius_px, "opening/closing radius", "px")
           .Min(0)
+          .Add("level_cell_px", &O::level_cell_px,
+               "without calibration: cell of the local road level that follows ruts and sags (0 = one level)", "px")
+          .Min(0)
+          .Add("min_wall_steepness", &O::min_wall_steepness,
+               "without calibration: an instance's wall slope at least this many road slope-noise sigma (0 = off)")
+          .Min(0)
           .Add("rim_depth_m", &O::rim_depth_m,
                "calibrated rim extension depth, floor of the local road noise threshold", "m")
           .Above(0)
@@ -168,6 +176,13 @@ void CrackOptions::Check() const {
   Require(min_length_px >= 2, "min_length_px", min_length_px, ">=", "2", 2);
   Require(ridge_max_sigma_px >= ridge_min_sigma_px, "ridge_max_sigma_px", ridge_max_sigma_px, ">=",
           "ridge_min_sigma_px", ridge_min_sigma_px);
+  if (detector == Detector::kLearned) {
+    const std::filesystem::path path = ResolveCrackModelPath(model);
+    if (!std::filesystem::is_regular_file(path))
+      throw OptionError(fmt::format("damage.detector = learned needs the crack model, not found: {}", path.string()));
+  }
+  Require(learned_threshold >= 0, "learned_threshold", learned_threshold, ">=", "0", 0);
+  Require(learned_threshold < 1, "learned_threshold", learned_threshold, "<", "1", 1);
   Require(ridge_high_sigma >= ridge_low_sigma, "ridge_high_sigma", ridge_high_sigma, ">=", "ridge_low_sigma",
           ridge_low_sigma);
 }
@@ -176,13 +191,6 @@ const OptionTable<CrackOptions>& CrackOptions::Table() {
   using O = CrackOptions;
   static const auto table =
       OptionTable<O>()
-  if (detector == Detector::kLearned) {
-    const std::filesystem::path path = ResolveCrackModelPath(model);
-    if (!std::filesystem::is_regular_file(path))
-      throw OptionError(fmt::format("damage.detector = learned needs the crack model, not found: {}", path.string()));
-  }
-  Require(learned_threshold >= 0, "learned_threshold", learned_threshold, ">=", "0", 0);
-  Require(learned_threshold < 1, "learned_threshold", learned_threshold, "<", "1", 1);
           .Add("enabled", &O::enabled, "look for cracks")
           .AddEnum("detector", &O::detector,
                    {{"auto", O::Detector::kAuto},

@@ -78,6 +78,14 @@ struct SegmentOptions {
   double grow_fraction = 0.5;    ///< hysteresis: grow regions into pixels deeper than this fraction of the threshold
   double invalid_fill_fraction = 0.3;  ///< unmatched patches whose border is at least this fraction damage join it
   int morph_radius_px = 2;             ///< opening/closing radius, px
+  /// Without calibration (a foreign transformed disparity): cell of the local road level
+  /// (LocalReliefLevel), so ruts, sags and a crown the transformation left are road, not
+  /// damage; 0 = one level per image, px.
+  int level_cell_px = 32;
+  /// Without calibration: an instance's wall (median slope over the 3 px inside its outline)
+  /// must be this many times the road's slope noise σ (the road's own slopes have a median of
+  /// 1.18 σ); broad sags and ruts the level did not follow are no steeper; 0 = off.
+  double min_wall_steepness = 3.0;
   double rim_depth_m = 0.001;        ///< calibrated: rim extension threshold floor (raised to the local road noise), m
   double rim_depth_fraction = 0.03;  ///< calibrated: rim threshold at least this fraction of the instance's depth
   bool rim_ring_mean = true;   ///< calibrated: then grow by whole rings whose mean depth is significant (ExtendToRim)

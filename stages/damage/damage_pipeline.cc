@@ -11,6 +11,7 @@
 #include "stages/damage/road/road_islands.h"
 #include "stages/damage/grade/severity.h"
 #include "stages/damage/measure/sharp_disparity.h"
+#include "stages/damage/segment/local_level.h"
 #include "stages/damage/noise/two_sided_noise.h"
 #include "survey/elapsed.h"
 
@@ -359,7 +360,7 @@ TransformedSegmentation SegmentTransformedDisparity(const cv::Mat& transformed, 
   if (!left_image.empty() && left_image.size() != transformed.size())
     throw std::invalid_argument("SegmentTransformedDisparity: left image and disparity differ in size");
   const ReliefImage relief = ToRelief(transformed);
-  const DepressionSegmentation seg = SegmentDepressions(relief, o.segment, cv::Mat(), scale);
+  const DepressionSegmentation seg = SegmentOnLocalLevel(relief, o.segment, scale);
   TransformedSegmentation out;
   out.labels = seg.labels;
   out.scale = seg.scale;

@@ -207,13 +207,15 @@ TEST(SegmentDepressions, Fan2019Dataset3) {
     const cv::Mat label = cv::imread((dir / "label" / name).string(), cv::IMREAD_GRAYSCALE);
     ASSERT_FALSE(disp.empty());
     ASSERT_FALSE(label.empty());
-    const DepressionSegmentation seg = SegmentDepressions(ToRelief(disp), SegmentOptions());
+    DamageOptions options;  // as `roadsurvey segment --no-cracks`
+    options.crack.enabled = false;
+    const TransformedSegmentation seg = SegmentTransformedDisparity(disp, cv::Mat(), options);
     const PixelMetrics m = ComparePixels(seg.labels, label);
     std::printf(
-        "fan2019 dataset3 %s: instances %d threshold %.1f sigma (level %.0f, sigma %.0f) "
+        "fan2019 dataset3 %s: instances %zu threshold %.1f sigma (level %.0f, sigma %.0f) "
         "P %.3f R %.3f F1 %.3f IoU %.3f\n",
-        name, seg.count, seg.threshold_sigma, seg.scale.road_level, seg.scale.sigma, m.precision, m.recall, m.f1,
-        m.iou);
+        name, seg.instances.size(), seg.threshold_sigma, seg.scale.road_level, seg.scale.sigma, m.precision, m.recall,
+        m.f1, m.iou);
     EXPECT_GT(m.f1, 0.85) << name;
     overall.Add(m);
   }
