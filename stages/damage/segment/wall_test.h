@@ -23,8 +23,8 @@ ReliefSlope MeasureReliefSlope(const cv::Mat& value, const cv::Mat& valid, const
                                double smooth_px = 2.0);
 
 /// Steepness of each instance's wall: the median slope magnitude over the band of `band_px`
-/// pixels just inside its outline, in units of the road's slope noise. `labels`: CV_16U ids
-/// 1..count, those `slope` was measured with.
+/// pixels just inside its outline, in units of the road's slope noise (the road's own slopes have
+/// a median of 1.18 σ). `labels`: CV_16U ids 1..count, those `slope` was measured with.
 /// Returns count + 1 entries (entry 0 unused; NaN where an instance's band holds no valid pixel).
 std::vector<double> WallSteepness(const ReliefSlope& slope, const cv::Mat& labels, int count, int band_px = 3);
 
