@@ -45,7 +45,7 @@ struct DepressionSegmentation {
   ReliefScale scale;           ///< level and σ used
   double threshold_sigma = 0;  ///< chosen threshold, σ below the road level (positive)
   int dropped_small = 0;       ///< components removed by the minimum size
-  int dropped_gentle = 0;      ///< instances removed for a wall no steeper than the road (SegmentOnLocalLevel)
+  int dropped_gentle = 0;      ///< instances removed for a wall no steeper than the road (wall_test.h)
   cv::Mat noise_sigma;         ///< CV_32F per-pixel σ the seeds were tested against (the caller's map; may be empty)
 };
 
