@@ -328,10 +328,17 @@ struct CracksArgs {
   std::string dir, json, debug;
   double tolerance_px = 2;
   int max_images = 0;
+  std::string detector = "auto", model;
 };
 
 int RunEvalCracks(const CracksArgs& a) {
-  const CrackFolderEvaluation e = EvaluateCrackFolder(a.dir, CrackOptions(), a.tolerance_px, a.max_images, a.debug);
+  CrackOptions options;
+  nlohmann::json oj = CrackOptions::Table().ToJson(options);
+  oj["detector"] = a.detector;
+  oj["model"] = a.model;
+  options = CrackOptions::Table().FromJson(oj);
+  options.Check();
+  const CrackFolderEvaluation e = EvaluateCrackFolder(a.dir, options, a.tolerance_px, a.max_images, a.debug);
   nlohmann::json images = nlohmann::json::array();
   std::string table = fmt::format("{:<32} {:>9} {:>7} {:>7} {:>6}\n", "image", "precision", "recall", "F1", "cracks");
   for (const CrackFolderImage& r : e.images) {
@@ -345,14 +352,21 @@ int RunEvalCracks(const CracksArgs& a) {
   table += fmt::format("{:<32} {:>9.3f} {:>7.3f} {:>7.3f}\n", fmt::format("TOTAL ({} images)", e.images.size()),
                        e.overall.Precision(), e.overall.Recall(), e.overall.F1());
   if (a.json != "-")
-    fmt::print("{}crack pixels within {} px, pooled over the images; {} of {} images without a detected crack, {} "
-               "without a true crack pixel\n",
-               table, a.tolerance_px, e.images_without_crack, e.images.size(), e.images_without_truth);
+    fmt::print(
+        "{}crack pixels within {} px, pooled over the images; {} of {} images without a detected crack, {} "
+        "without a true crack pixel\n"
+        "detector {}: precision {:.3f}, recall {:.3f}, F1 {:.3f}; wall {:.1f} s, detection {:.1f} ms per image\n",
+        table, a.tolerance_px, e.images_without_crack, e.images.size(), e.images_without_truth, e.detector,
+        e.overall.Precision(), e.overall.Recall(), e.overall.F1(), e.wall_s,
+        1e3 * e.detect_s / std::max<size_t>(1, e.images.size()));
   if (!a.json.empty()) {
     nlohmann::json total = ToJson(e.overall, a.tolerance_px);
     total["images"] = e.images.size();
     total["images_without_crack"] = e.images_without_crack;
     total["images_without_truth"] = e.images_without_truth;
+    total["detector"] = e.detector;
+    total["wall_s"] = e.wall_s;
+    total["detect_s"] = e.detect_s;
     WriteTextOutput(a.json,
                     nlohmann::json{{"schema", "roadsurvey.eval_cracks/1"}, {"images", images}, {"total", total}}.dump(2) +
                         "\n");
@@ -563,6 +577,10 @@ Command EvalCommand() {
             ->check(CLI::NonNegativeNumber);
         crk->add_option("--debug", c->debug, "write image | truth (green) | detection (magenta) PNGs to this folder");
         crk->add_option("--json", c->json, "write the metrics as JSON ('-' = stdout)");
+        crk->add_option("--detector", c->detector,
+                        "auto (the learned model when its file exists, else ridge), learned, ridge or black-hat")
+            ->check(CLI::IsMember({"auto", "learned", "ridge", "black-hat"}));
+        crk->add_option("--model", c->model, "learned crack model (ONNX, its .json beside it; default: the committed one)");
 
         auto t = std::make_shared<TrajectoryArgs>();
         CLI::App* traj = app.add_subcommand("trajectory", "estimated vs truth trajectory: ATE, RDE, RPE, KITTI errors");

@@ -9,6 +9,8 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <atomic>
+#include <chrono>
 
 namespace rs {
 
@@ -57,26 +59,35 @@ CrackFolderEvaluation EvaluateCrackFolder(const fs::path& dir, const CrackOption
     for (size_t i = 0; i < names.size(); i += step) kept.push_back(names[i]);
     names.swap(kept);
   }
+  using Clock = std::chrono::steady_clock;
+  const Clock::time_point t0 = Clock::now();
   CrackFolderEvaluation out;
   out.images.resize(names.size());
+  std::atomic<int64_t> detect_ns{0};
   tbb::parallel_for(size_t(0), names.size(), [&](size_t i) {
     const fs::path image_path = dir / "images" / names[i], mask_path = dir / "masks" / names[i];
     const cv::Mat image = ReadOrThrow(image_path, cv::IMREAD_COLOR);
     const cv::Mat mask = ReadOrThrow(mask_path, cv::IMREAD_GRAYSCALE);
     if (mask.size() != image.size())
       throw InputError(InputLocation::File(mask_path.string()), "mask size differs from the image's");
+    const Clock::time_point t = Clock::now();
     const CrackDetection d = DetectCracks(image, cv::Mat(), cv::Mat(), cv::Mat(), options);
+    detect_ns += std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now() - t).count();
     CrackFolderImage& r = out.images[i];
     r.name = names[i];
     r.cracks = int(d.instances.size());
+    r.detector = CrackDetectorName(d.detector, false);
     r.score = ScoreCrackPixels(d.labels != 0, mask >= 128, tolerance_px);
     if (!debug_dir.empty()) WriteDebug(debug_dir / (fs::path(names[i]).stem().string() + ".png"), image, mask, d);
   });
   for (const CrackFolderImage& r : out.images) {
+    out.detector = out.detector.empty() || out.detector == r.detector ? r.detector : "mixed";
     out.overall += r.score;
     out.images_without_crack += r.cracks == 0;
     out.images_without_truth += r.score.truth == 0;
   }
+  out.detect_s = detect_ns * 1e-9;
+  out.wall_s = std::chrono::duration<double>(Clock::now() - t0).count();
   return out;
 }
 

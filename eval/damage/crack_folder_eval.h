@@ -1,7 +1,7 @@
 #pragma once
 // Crack detection scored on a folder of real photographs with pixel masks (images/NAME.jpg,
-// masks/NAME.jpg, no metric scale): DetectCracks in pixel units, tolerance scoring per image
-// and pooled.
+// masks/NAME.jpg, no metric scale): DetectCracks in pixel units (classical or learned, as
+// options.detector resolves), tolerance scoring per image and pooled.
 
 #include "eval/damage/crack_score.h"
 #include "stages/damage/damage_options.h"
@@ -15,7 +15,8 @@ namespace rs {
 struct CrackFolderImage {
   std::string name;
   TolerantPixelScore score;
-  int cracks = 0;  ///< crack instances detected
+  int cracks = 0;        ///< crack instances detected
+  std::string detector;  ///< the detector used (CrackDetectorName, pixel units)
 };
 
 struct CrackFolderEvaluation {
@@ -23,6 +24,9 @@ struct CrackFolderEvaluation {
   TolerantPixelScore overall;            ///< pooled pixel counts
   int images_without_crack = 0;          ///< images where nothing was detected
   int images_without_truth = 0;          ///< images whose mask holds no crack pixel
+  std::string detector;                  ///< the detector used on every image, else "mixed"
+  double wall_s = 0;                     ///< the whole evaluation (reading, detecting, scoring), s
+  double detect_s = 0;                   ///< DetectCracks summed over the images (one thread each), s
 };
 
 /// Every image of `dir`/images with a mask of the same name in `dir`/masks (crack = mask grey

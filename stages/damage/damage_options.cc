@@ -199,8 +199,8 @@ const OptionTable<CrackOptions>& CrackOptions::Table() {
                     {"black-hat", O::Detector::kBlackHat},
                     {"blackhat", O::Detector::kBlackHat}},  // the earlier spelling, still read
                    "crack evidence: learned model (probability at its threshold), multi-scale Hessian ridge with "
-                   "hysteresis, or morphological black-hat; auto = learned without calibration when the model file "
-                   "exists, else classical")
+                   "hysteresis, or morphological black-hat; auto = learned on patches up to 384 px without "
+                   "calibration when the model file exists, else classical")
           .Add("model", &O::model,
                "learned crack model (ONNX, its .json beside it); empty = the committed "
                "stages/damage/cracks/model/crack_net.onnx")

@@ -101,9 +101,10 @@ struct CrackOptions {
   /// Crack evidence: kLearned = the learned model's probability (crack_net.h) at its threshold;
   /// kRidge = multi-scale Hessian valley less the gradient, each scale in robust σ of its own
   /// texture, with hysteresis (ridge.h); kBlackHat = morphological black-hat with a local level
-  /// and oriented line support; kAuto = kLearned in pixel units (no pixel sizes) when the model
-  /// file exists, else the classical detector (kRidge in pixel units; with pixel sizes the metric
-  /// black-hat, which measured better than the model on the simulator, docs/results/damage.md).
+  /// and oriented line support; kAuto = kLearned in pixel units (no pixel sizes) on images up to
+  /// 384 px a side (patches like its training data) when the model file exists, else the
+  /// classical detector (kRidge in pixel units; with pixel sizes the metric black-hat): both
+  /// measured better than the model on whole frames (docs/results/damage.md).
   enum class Detector { kAuto, kLearned, kRidge, kBlackHat };
   Detector detector = Detector::kAuto;
   /// The learned model (ONNX, with its .json beside it); empty = the committed model

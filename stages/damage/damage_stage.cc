@@ -70,7 +70,7 @@ StageInfo DamageStage::Info() {
 
 std::string DamageStage::ExtraKeyOf(const DamageStageOptions& o) const {
   const CrackOptions& c = o.damage.crack;
-  if (!c.enabled || ResolveCrackDetector(c, true) != CrackOptions::Detector::kLearned) return {};
+  if (!c.enabled || ResolveCrackDetector(c, true, cv::Size()) != CrackOptions::Detector::kLearned) return {};
   const fs::path model = ResolveCrackModelPath(c.model);
   try {
     return "crack_model_sha256=" + Sha256OfFile(model);
@@ -85,7 +85,7 @@ void DamageStage::Run(StageContext& ctx, const DamageStageOptions& o) const {
   const RectifiedStereo geometry = RectifiedStereoOf(calib);
   const fs::path disparity_dir = ctx.input_dir("disparity");
   const std::string crack_detector =
-      o.damage.crack.enabled ? CrackDetectorName(ResolveCrackDetector(o.damage.crack, true), true) : "none";
+      o.damage.crack.enabled ? CrackDetectorName(ResolveCrackDetector(o.damage.crack, true, cv::Size()), true) : "none";
 
   ctx.ForEachFrame(
       frames,
@@ -108,19 +108,19 @@ void DamageStage::Run(StageContext& ctx, const DamageStageOptions& o) const {
           throw InputError(InputLocation::File((in_dir / disparity_files::kDisparity).string()), e.what());
         }
         WriteLabelPng((tmp / "labels.png").string(), result.labels);
-        nlohmann::json detections = {{"frame", f.id.value},
-                                     {"t_ns", f.t_ns},
-                                     {"threshold_sigma", result.threshold_sigma},
-                                     {"crack_detector", crack_detector},
-                                     // Damage farther than this was not looked for (null: no limit).
-                                     {"analysed_range_m", std::isfinite(result.analysed_range_m)
-                                                              ? nlohmann::json(result.analysed_range_m)
-                                                              : nlohmann::json(nullptr)},
-                                     {"road",
-                                      {{"camera_height_m", result.surface.camera_height_m},
-                                       {"residual_sigma_m", result.surface.residual_sigma_m},
-                                       {"inliers", result.surface.inliers},
-                                       {"obstacle_points", result.surface.obstacle_points}}}};
+        nlohmann::json detections = {
+            {"frame", f.id.value},
+            {"t_ns", f.t_ns},
+            {"threshold_sigma", result.threshold_sigma},
+            {"crack_detector", crack_detector},
+            // Damage farther than this was not looked for (null: no limit).
+            {"analysed_range_m", std::isfinite(result.analysed_range_m) ? nlohmann::json(result.analysed_range_m)
+                                                                        : nlohmann::json(nullptr)},
+            {"road",
+             {{"camera_height_m", result.surface.camera_height_m},
+              {"residual_sigma_m", result.surface.residual_sigma_m},
+              {"inliers", result.surface.inliers},
+              {"obstacle_points", result.surface.obstacle_points}}}};
         detections.update(DetectionsToJson(result.instances));  // "schema" + "detections"
         WriteJsonAtomic(tmp / "detections.json", detections);
         if (o.write_overlay) WriteImageFile(tmp / "overlay.png", RenderOverlay(left, result.labels, result.instances));

@@ -94,8 +94,9 @@ const LoadedModel& Loaded(const fs::path& path) {
   fs::path meta = path;
   meta.replace_extension(".json");
   std::ifstream in(meta);
-  if (!in) throw CrackModelError(meta.string() + ": missing (beside the crack model " + path.string() +
-                                 "; holds its detection threshold)");
+  if (!in)
+    throw CrackModelError(meta.string() + ": missing (beside the crack model " + path.string() +
+                          "; holds its detection threshold)");
   try {
     const nlohmann::json j = nlohmann::json::parse(in);
     m->info.threshold = j.at("threshold").get<double>();
@@ -109,8 +110,7 @@ const LoadedModel& Loaded(const fs::path& path) {
     throw CrackModelError(meta.string() + ": stride_px must lie in [1, 64]");
   // Imported and run once here, so that a file OpenCV cannot use fails on first use with its name.
   cv::dnn::Net net = NetFrom(*m);
-  RunTile(net, cv::Mat(2 * m->info.stride_px, 2 * m->info.stride_px, CV_8U, cv::Scalar(128)), m->info.stride_px,
-          path);
+  RunTile(net, cv::Mat(2 * m->info.stride_px, 2 * m->info.stride_px, CV_8U, cv::Scalar(128)), m->info.stride_px, path);
   return *g_models.emplace(key, std::move(m)).first->second;
 }
 
@@ -123,7 +123,9 @@ fs::path DefaultCrackModelPath() {
   return source;
 }
 
-fs::path ResolveCrackModelPath(const std::string& path) { return path.empty() ? DefaultCrackModelPath() : fs::path(path); }
+fs::path ResolveCrackModelPath(const std::string& path) {
+  return path.empty() ? DefaultCrackModelPath() : fs::path(path);
+}
 
 const CrackModelInfo& LoadCrackModel(const fs::path& path) { return Loaded(path).info; }
 

@@ -365,12 +365,13 @@ void MeasureComponents(cv::Mat cand, const Evidence& e, const cv::Mat& pixel_siz
 
 }  // namespace
 
-CrackOptions::Detector ResolveCrackDetector(const CrackOptions& o, bool calibrated) {
+CrackOptions::Detector ResolveCrackDetector(const CrackOptions& o, bool calibrated, cv::Size size) {
   using D = CrackOptions::Detector;
   if (o.detector != D::kAuto) return o.detector;
   // With pixel sizes the metric black-hat stays the default: on the simulator's frames it
-  // measured better than the model trained on patches (docs/results/damage.md).
-  if (calibrated) return D::kRidge;
+  // measured better than the model trained on patches (docs/results/damage.md); so does the
+  // ridge on whole frames in pixel units.
+  if (calibrated || std::max(size.width, size.height) > kAutoLearnedMaxSidePx) return D::kRidge;
   return std::filesystem::exists(ResolveCrackModelPath(o.model)) ? D::kLearned : D::kRidge;
 }
 
@@ -389,7 +390,7 @@ cv::Mat CrackResponse(const cv::Mat& image, const CrackOptions& o, const cv::Mat
   const cv::Mat grey = Grey(image);
   if (!pixel_size_m.empty() && (pixel_size_m.size() != grey.size() || pixel_size_m.type() != CV_32FC1))
     throw std::invalid_argument("CrackResponse: pixel sizes must be CV_32F of the image's size");
-  if (ResolveCrackDetector(o, !pixel_size_m.empty()) == CrackOptions::Detector::kLearned) {
+  if (ResolveCrackDetector(o, !pixel_size_m.empty(), grey.size()) == CrackOptions::Detector::kLearned) {
     cv::Mat p8;
     CrackProbability(grey, ResolveCrackModelPath(o.model)).convertTo(p8, CV_8U, 255.0);
     return p8;
@@ -406,7 +407,7 @@ CrackDetection DetectCracks(const cv::Mat& image, const cv::Mat& road_mask, cons
   auto same = [&](const cv::Mat& m, int type) { return m.empty() || (m.size() == image.size() && m.type() == type); };
   if (!same(road_mask, CV_8UC1) || !same(exclude, CV_8UC1) || !same(pixel_size_m, CV_32FC1))
     throw std::invalid_argument("DetectCracks: masks must be CV_8U and pixel sizes CV_32F of the image's size");
-  const CrackOptions::Detector detector = ResolveCrackDetector(o, !pixel_size_m.empty());
+  const CrackOptions::Detector detector = ResolveCrackDetector(o, !pixel_size_m.empty(), image.size());
   const cv::Mat response = precomputed.empty() ? CrackResponse(image, o, pixel_size_m) : precomputed;
   cv::Mat search = road_mask.empty() ? cv::Mat(image.size(), CV_8U, cv::Scalar(255)) : (road_mask != 0);
   if (!exclude.empty()) search &= (exclude == 0);

@@ -20,10 +20,16 @@ struct CrackDetection {
   CrackOptions::Detector detector = CrackOptions::Detector::kRidge;  ///< the one used (never kAuto)
 };
 
-/// The detector DetectCracks runs for `options` with (`calibrated`) or without pixel sizes:
-/// kAuto = kLearned without pixel sizes when the model file exists, else kRidge (which runs
-/// the metric black-hat with pixel sizes).
-CrackOptions::Detector ResolveCrackDetector(const CrackOptions& options, bool calibrated);
+/// kAuto runs the learned model on images no larger than this a side: patches like those it was
+/// trained on (close-up crops of 120–240 px). On whole road frames in pixel units (fan2019, 1710 ×
+/// 1028) it marked 15 % of the image as crack against the ridge's 1 % (docs/results/damage.md).
+inline constexpr int kAutoLearnedMaxSidePx = 384;
+
+/// The detector DetectCracks runs for `options` on an image of `size` with (`calibrated`) or
+/// without pixel sizes: kAuto = kLearned without pixel sizes on images up to
+/// kAutoLearnedMaxSidePx a side when the model file exists, else kRidge (which runs the metric
+/// black-hat with pixel sizes).
+CrackOptions::Detector ResolveCrackDetector(const CrackOptions& options, bool calibrated, cv::Size size);
 
 /// "learned", "ridge", "black-hat" (kRidge with pixel sizes: the metric black-hat runs), "auto".
 const char* CrackDetectorName(CrackOptions::Detector detector, bool calibrated);

@@ -31,11 +31,11 @@ CrackOptions Learned() {
   return o;
 }
 
-#define RS_REQUIRE_CRACK_MODEL()                                                                             \
-  do {                                                                                                       \
-    if (!std::filesystem::exists(DefaultCrackModelPath()))                                                   \
-      GTEST_SKIP() << "no learned crack model at " << DefaultCrackModelPath().string()                       \
-                   << " (stages/damage/cracks/model/train_crack_net.py writes it)";                           \
+#define RS_REQUIRE_CRACK_MODEL()                                                       \
+  do {                                                                                 \
+    if (!std::filesystem::exists(DefaultCrackModelPath()))                             \
+      GTEST_SKIP() << "no learned crack model at " << DefaultCrackModelPath().string() \
+                   << " (stages/damage/cracks/model/train_crack_net.py writes it)";    \
   } while (0)
 
 cv::Mat Asphalt(unsigned seed) {
@@ -77,8 +77,7 @@ TEST(DetectCracks, ExcludedAndOffRoad) {
   cv::Mat road = cv::Mat::zeros(img.size(), CV_8U);
   road(cv::Rect(0, 0, 640, 100)).setTo(255);  // the crack is off the road
   EXPECT_TRUE(DetectCracks(img, road, cv::Mat(), cv::Mat(), Ridge()).instances.empty());
-  EXPECT_THROW(DetectCracks(cv::Mat(10, 10, CV_32F), cv::Mat(), cv::Mat(), cv::Mat(), Ridge()),
-               std::invalid_argument);
+  EXPECT_THROW(DetectCracks(cv::Mat(10, 10, CV_32F), cv::Mat(), cv::Mat(), cv::Mat(), Ridge()), std::invalid_argument);
 }
 
 // Without calibration (ridge detector, pixel units): a dark line 3 px wide and one 15 px wide
@@ -154,42 +153,50 @@ TEST(DetectCracks, ObliqueAggregateIsNoCrack) {
   EXPECT_NEAR(c.instances[0].mean_width_m, 0.010, 0.004);
 }
 
-// Real imagery (fan2019 dataset3, left images, no calibration: pixel scales): cracks never paint
-// whole road areas, classical or learned. Measured crack share of the image per frame printed;
-// bound 3 %.
+// Real imagery (fan2019 dataset3, left images, 1710 × 1028, no calibration: pixel scales): the
+// default (auto: the ridge on whole frames) never paints whole road areas. Measured crack share of
+// the image per frame printed; bound 3 % (measured 1.1–1.7 %). The learned model, forced, is
+// printed beside it on one frame: it marks 14.6 % of it (8.6–14.6 % of the five; far from its
+// close-up training patches),
+// which is why auto keeps the classical detector on frames.
 TEST(DetectCracks, Fan2019NoCrackPaint) {
   const auto dir = test::DataRoot() / "pothole_stereo_fan2019" / "dataset3" / "rgb";
   RS_REQUIRE_DATA(dir);
-  std::vector<CrackOptions> detectors = {Ridge()};
-  if (std::filesystem::exists(DefaultCrackModelPath())) detectors.push_back(Learned());
-  for (const CrackOptions& o : detectors)
-    for (int i = 1; i <= 5; ++i) {
-      char name[16];
-      std::snprintf(name, sizeof name, "%02d.png", i);
-      const cv::Mat img = cv::imread((dir / name).string(), cv::IMREAD_COLOR);
-      ASSERT_FALSE(img.empty()) << name;
-      const CrackDetection c = DetectCracks(img, cv::Mat(), cv::Mat(), cv::Mat(), o);
-      const double share = cv::countNonZero(c.labels) / double(c.labels.total());
-      const char* detector = CrackDetectorName(c.detector, false);
-      std::printf("fan2019 dataset3 %s, %s: %zu cracks, %.2f %% of the image\n", name, detector, c.instances.size(),
-                  100 * share);
-      EXPECT_LE(share, 0.03) << name << " " << detector;
+  const bool model = std::filesystem::exists(DefaultCrackModelPath());
+  for (int i = 1; i <= 5; ++i) {
+    char name[16];
+    std::snprintf(name, sizeof name, "%02d.png", i);
+    const cv::Mat img = cv::imread((dir / name).string(), cv::IMREAD_COLOR);
+    ASSERT_FALSE(img.empty()) << name;
+    const CrackDetection c = DetectCracks(img, cv::Mat(), cv::Mat(), cv::Mat(), CrackOptions());
+    EXPECT_EQ(c.detector, CrackOptions::Detector::kRidge) << name;
+    const double share = cv::countNonZero(c.labels) / double(c.labels.total());
+    std::printf("fan2019 dataset3 %s, auto (ridge): %zu cracks, %.2f %% of the image\n", name, c.instances.size(),
+                100 * share);
+    EXPECT_LE(share, 0.03) << name;
+    if (model && i == 1) {  // one frame: the learned model on a whole frame takes seconds
+      const CrackDetection l = DetectCracks(img, cv::Mat(), cv::Mat(), cv::Mat(), Learned());
+      std::printf("fan2019 dataset3 %s, learned: %zu cracks, %.2f %% of the image\n", name, l.instances.size(),
+                  100 * cv::countNonZero(l.labels) / double(l.labels.total()));
     }
+  }
 }
 
 TEST(CrackDetector, AutoResolves) {
   CrackOptions o;  // auto
-  EXPECT_EQ(ResolveCrackDetector(o, true), CrackOptions::Detector::kRidge);  // calibrated: classical
+  const cv::Size patch(213, 121), frame(1710, 1028);
+  EXPECT_EQ(ResolveCrackDetector(o, true, patch), CrackOptions::Detector::kRidge);   // calibrated: classical
+  EXPECT_EQ(ResolveCrackDetector(o, false, frame), CrackOptions::Detector::kRidge);  // a whole frame: classical
   o.model = "/nonexistent/crack_net.onnx";
-  EXPECT_EQ(ResolveCrackDetector(o, false), CrackOptions::Detector::kRidge);  // no model file: classical
+  EXPECT_EQ(ResolveCrackDetector(o, false, patch), CrackOptions::Detector::kRidge);  // no model file: classical
   EXPECT_STREQ(CrackDetectorName(CrackOptions::Detector::kRidge, true), "black-hat");
   EXPECT_STREQ(CrackDetectorName(CrackOptions::Detector::kRidge, false), "ridge");
   o.model.clear();
   if (std::filesystem::exists(DefaultCrackModelPath())) {
-    EXPECT_EQ(ResolveCrackDetector(o, false), CrackOptions::Detector::kLearned);
+    EXPECT_EQ(ResolveCrackDetector(o, false, patch), CrackOptions::Detector::kLearned);
   }
   o.detector = CrackOptions::Detector::kBlackHat;
-  EXPECT_EQ(ResolveCrackDetector(o, false), CrackOptions::Detector::kBlackHat);
+  EXPECT_EQ(ResolveCrackDetector(o, false, frame), CrackOptions::Detector::kBlackHat);
 }
 
 // `learned` without its model file: the options check and the detector name the path.
