@@ -109,9 +109,13 @@ struct SideOptions {
   }
 };
 
+// What the side stage's outputs depend on beyond inputs and options (as a model file's digest).
+std::string g_side_extra;
+
 class SideStage : public TypedStage<SideStage, SideOptions> {
  public:
   static StageInfo Info() { return {"side", 1, "independent branch", {"frames"}, {"side"}, {}, false}; }
+  std::string ExtraKeyOf(const SideOptions&) const { return g_side_extra; }
   void Run(StageContext& ctx, const SideOptions&) const {
     ++g_side_runs;
     WriteFileAtomic(ctx.out_dir() / "n.txt", "ok");
@@ -133,6 +137,7 @@ class ExecutorTest : public ::testing::Test {
     doc_ = {{"name", "t"}, {"inputs", {{"frames", {{"path", "numbers"}}}}}, {"output", "out"}};
     g_list_runs = g_scale_frames = g_sum_runs = g_side_runs = 0;
     g_fail_at_frame = -1;
+    g_side_extra.clear();
   }
   void TearDown() override { fs::remove_all(root_); }
 
@@ -191,6 +196,17 @@ TEST_F(ExecutorTest, OptionChangeRerunsStageAndDependentsOnly) {
   EXPECT_EQ(Status(r2, "scale"), "reused");
   EXPECT_EQ(Status(r2, "sum"), "reused");
   EXPECT_EQ(Slurp(root_ / "out" / "sum.txt"), "110");
+}
+
+// A stage's extra key (a model's digest) reruns that stage alone when it changes.
+TEST_F(ExecutorTest, ExtraKeyChangeRerunsThatStageOnly) {
+  Run();
+  g_side_extra = "model_sha256=1234";
+  const auto r = Run();
+  EXPECT_EQ(Status(r, "side"), "computed");
+  for (const char* s : {"list", "scale", "sum"}) EXPECT_EQ(Status(r, s), "reused") << s;
+  g_side_extra.clear();  // the first key again: cached
+  EXPECT_EQ(Status(Run(), "side"), "reused");
 }
 
 TEST_F(ExecutorTest, CliOverrideChangesKeyLikeSurveyOption) {
