@@ -144,7 +144,7 @@ const OptionTable<SegmentOptions>& SegmentOptions::Table() {
                "without calibration: cell of the local road level that follows ruts and sags (0 = one level)", "px")
           .Min(0)
           .Add("min_wall_steepness", &O::min_wall_steepness,
-               "an instance's wall slope at least this many road slope-noise sigma (0 = off)")
+               "without calibration: an instance's wall slope at least this many road slope-noise sigma (0 = off)")
           .Min(0)
           .Add("rim_depth_m", &O::rim_depth_m,
                "calibrated rim extension depth, floor of the local road noise threshold", "m")

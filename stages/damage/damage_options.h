@@ -82,8 +82,8 @@ struct SegmentOptions {
   /// (LocalReliefLevel), so ruts, sags and a crown the transformation left are road, not
   /// damage; 0 = one level per image, px.
   int level_cell_px = 32;
-  /// An instance's wall (median slope over the 3 px inside its outline) must be this many times
-  /// the road's slope noise σ (the road's own slopes have a median of
+  /// Without calibration: an instance's wall (median slope over the 3 px inside its outline)
+  /// must be this many times the road's slope noise σ (the road's own slopes have a median of
   /// 1.18 σ); broad sags and ruts the level did not follow are no steeper; 0 = off.
   double min_wall_steepness = 3.0;
   double rim_depth_m = 0.001;        ///< calibrated: rim extension threshold floor (raised to the local road noise), m

@@ -12,7 +12,6 @@
 #include "stages/damage/grade/severity.h"
 #include "stages/damage/measure/sharp_disparity.h"
 #include "stages/damage/segment/local_level.h"
-#include "stages/damage/segment/wall_test.h"
 #include "stages/damage/noise/two_sided_noise.h"
 #include "survey/elapsed.h"
 
@@ -190,14 +189,6 @@ void BuildNoiseMaps(DamageFrame& s) {
 
 void Segment(DamageFrame& s) {
   s.seg = SegmentDepressions(s.relief, s.o.segment, s.area, s.scale, s.noise, s.noise.empty() ? cv::Mat() : s.edges);
-  // A pothole has a wall (wall_test.h): what crosses the threshold on a slope no steeper than the
-  // road's own roughness is road shape the model did not follow.
-  if (s.o.segment.min_wall_steepness > 0 && s.seg.count > 0) {
-    const ReliefSlope slope = MeasureReliefSlope(s.relief.value, s.relief.valid, s.seg.labels);
-    s.seg.dropped_gentle = DropInstancesWithoutWall(&s.seg.labels, &s.seg.count,
-                                                    WallSteepness(slope, s.seg.labels, s.seg.count),
-                                                    s.o.segment.min_wall_steepness);
-  }
   s.f.labels = s.seg.labels;
   s.f.threshold_sigma = s.seg.threshold_sigma;
 }
