@@ -105,6 +105,18 @@ bool RobustLevel(std::vector<uchar>& vals, double* med, double* sigma) {
   return true;
 }
 
+// Every 4th pixel in u and v of `image` (CV_8U) where `search` is set: enough for a robust level.
+std::vector<uchar> SearchedSamples(const cv::Mat& image, const cv::Mat& search) {
+  std::vector<uchar> vals;
+  for (int v = 0; v < image.rows; v += 4) {
+    const uchar* sr = search.ptr<uchar>(v);
+    const uchar* rr = image.ptr<uchar>(v);
+    for (int u = 0; u < image.cols; u += 4)
+      if (sr[u]) vals.push_back(rr[u]);
+  }
+  return vals;
+}
+
 // Per-cell median and σ of the response over the searched pixels (every 3rd pixel), cells with
 // too few samples filled from their neighbours (or the frame's level): CV_32FC2, one per cell
 // (1 × 1: one level per frame).
@@ -427,13 +439,7 @@ CrackDetection DetectCracks(const cv::Mat& image, const cv::Mat& road_mask, cons
   // Robust level of the texture response (median + k·1.4826·MAD over the searched road), per
   // cell: the coarse aggregate resolved near an oblique camera responds far more than the
   // blurred road farther away, which one level per frame let through as "cracks".
-  std::vector<uchar> vals;
-  for (int v = 0; v < image.rows; v += 4) {
-    const uchar* sr = search.ptr<uchar>(v);
-    const uchar* rr = response.ptr<uchar>(v);
-    for (int u = 0; u < image.cols; u += 4)
-      if (sr[u]) vals.push_back(rr[u]);
-  }
+  std::vector<uchar> vals = SearchedSamples(response, search);
   double med = 0, sigma = 1;
   if (!RobustLevel(vals, &med, &sigma)) return out;
   out.response_threshold = med + o.k_sigma * sigma;
@@ -457,13 +463,7 @@ CrackDetection DetectCracks(const cv::Mat& image, const cv::Mat& road_mask, cons
     // Pixels darker than their surroundings (response above the local median + 1 σ) where the
     // line support stands out (its own local level + k σ).
     const cv::Mat support = LineSupport(response, o.line_length_px);
-    std::vector<uchar> svals;
-    for (int v = 0; v < image.rows; v += 4) {
-      const uchar* sr = search.ptr<uchar>(v);
-      const uchar* rr = support.ptr<uchar>(v);
-      for (int u = 0; u < image.cols; u += 4)
-        if (sr[u]) svals.push_back(rr[u]);
-    }
+    std::vector<uchar> svals = SearchedSamples(support, search);
     double smed = 0, ssigma = 1;
     RobustLevel(svals, &smed, &ssigma);
     const cv::Mat sgrid = LocalLevelGrid(support, search, o, smed, ssigma);

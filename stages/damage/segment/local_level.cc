@@ -115,9 +115,7 @@ cv::Mat ExclusionOf(const cv::Mat& labels, int cell) {
   cv::copyMakeBorder(mask, padded, cell, cell, cell, cell, cv::BORDER_CONSTANT, 0);
   cv::morphologyEx(padded, padded, cv::MORPH_CLOSE, disk(cell));
   mask = padded(cv::Rect(cell, cell, mask.cols, mask.rows)).clone();
-  cv::copyMakeBorder(mask, padded, 1, 1, 1, 1, cv::BORDER_CONSTANT, 0);
-  cv::floodFill(padded, cv::Point(0, 0), 128);
-  mask.setTo(255, padded(cv::Rect(1, 1, mask.cols, mask.rows)) == 0);
+  FillHoles(mask);
   cv::dilate(mask, mask, disk(std::max(1, cell / 2)));
   return mask;
 }

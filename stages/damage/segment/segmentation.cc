@@ -74,15 +74,6 @@ void FillInvalidInside(cv::Mat& mask, const cv::Mat& valid, double fraction) {
   }
 }
 
-// Fills holes: background components not connected to the image border.
-void FillHoles(cv::Mat& mask) {
-  cv::Mat padded;
-  cv::copyMakeBorder(mask, padded, 1, 1, 1, 1, cv::BORDER_CONSTANT, 0);
-  cv::floodFill(padded, cv::Point(0, 0), 128);
-  cv::Mat holes = padded(cv::Rect(1, 1, mask.cols, mask.rows)) == 0;
-  mask.setTo(255, holes);
-}
-
 // Disjoint regions of interest around the candidate regions: each component's bounding box
 // grown by `pad`, overlapping boxes merged until none overlap.
 std::vector<cv::Rect> CandidateRois(const cv::Mat& mask, int pad) {
@@ -176,6 +167,14 @@ void SnapToSuperpixels(cv::Mat& mask, const cv::Mat& z, const cv::Mat& valid, co
 }
 
 }  // namespace
+
+void FillHoles(cv::Mat& mask) {
+  cv::Mat padded;
+  cv::copyMakeBorder(mask, padded, 1, 1, 1, 1, cv::BORDER_CONSTANT, 0);
+  cv::floodFill(padded, cv::Point(0, 0), 128);
+  cv::Mat holes = padded(cv::Rect(1, 1, mask.cols, mask.rows)) == 0;
+  mask.setTo(255, holes);
+}
 
 ReliefImage ToRelief(const cv::Mat& image) {
   if (image.empty() || image.channels() != 1)

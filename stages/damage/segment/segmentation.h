@@ -22,6 +22,9 @@ struct ReliefImage {
   std::vector<double> row_elongation;
 };
 
+/// Fills the holes of a CV_8U mask (0 / 255): background components not connected to the border.
+void FillHoles(cv::Mat& mask);
+
 /// Converts an 8/16-bit or float single-channel image. Integer 0 and float
 /// ≤ 0 / NaN / inf mean "no measurement" (the convention of disp_tg and of
 /// ComputeRoadRelief). Throws std::invalid_argument for other types/channels.
