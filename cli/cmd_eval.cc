@@ -12,6 +12,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "cli/command.h"
+#include "cli/option_flags.h"
 #include "cli/tool_util.h"
 #include "formats/geojson/geojson.h"
 #include "formats/input_error.h"
@@ -329,14 +330,16 @@ struct CracksArgs {
   double tolerance_px = 2;
   int max_images = 0;
   std::string detector = "auto", model;
+  OptionFlags flags;  // --crack.<option>
 };
 
 int RunEvalCracks(const CracksArgs& a) {
-  CrackOptions options;
-  nlohmann::json oj = CrackOptions::Table().ToJson(options);
+  nlohmann::json oj = CrackOptions::Table().ToJson(CrackOptions{});
+  const nlohmann::json overrides = a.flags.Overrides();
+  if (overrides.contains("crack")) oj.update(overrides["crack"]);
   oj["detector"] = a.detector;
   oj["model"] = a.model;
-  options = CrackOptions::Table().FromJson(oj);
+  CrackOptions options = CrackOptions::Table().FromJson(oj);
   options.Check();
   const CrackFolderEvaluation e = EvaluateCrackFolder(a.dir, options, a.tolerance_px, a.max_images, a.debug);
   nlohmann::json images = nlohmann::json::array();
@@ -581,6 +584,8 @@ Command EvalCommand() {
                         "auto (the learned model when its file exists, else ridge), learned, ridge or black-hat")
             ->check(CLI::IsMember({"auto", "learned", "ridge", "black-hat"}));
         crk->add_option("--model", c->model, "learned crack model (ONNX, its .json beside it; default: the committed one)");
+        c->flags.Add(*crk, "crack", CrackOptions::Table(), "Crack options (the damage stage's crack.*)",
+                     {"detector", "model"});
 
         auto t = std::make_shared<TrajectoryArgs>();
         CLI::App* traj = app.add_subcommand("trajectory", "estimated vs truth trajectory: ATE, RDE, RPE, KITTI errors");

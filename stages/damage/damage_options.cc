@@ -240,11 +240,11 @@ const OptionTable<CrackOptions>& CrackOptions::Table() {
           .Min(0)
           .Add("min_length_m", &O::min_length_m, "shortest crack", "m")
           .Above(0)
-          .Add("min_elongation", &O::min_elongation, "length / width below this is not a crack")
+          .Add("min_elongation", &O::min_elongation, "length / width below this is not a crack (the learned model carries its own)")
           .Min(1)
           .Add("max_width_m", &O::max_width_m, "wider dark regions are not cracks", "m")
           .Above(0)
-          .Add("min_length_px", &O::min_length_px, "shortest crack without calibration", "px")
+          .Add("min_length_px", &O::min_length_px, "shortest crack without calibration (the learned model carries its own)", "px")
           .Min(2);
   return table;
 }

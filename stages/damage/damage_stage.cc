@@ -73,7 +73,9 @@ std::string DamageStage::ExtraKeyOf(const DamageStageOptions& o) const {
   if (!c.enabled || ResolveCrackDetector(c, true, cv::Size()) != CrackOptions::Detector::kLearned) return {};
   const fs::path model = ResolveCrackModelPath(c.model);
   try {
-    return "crack_model_sha256=" + Sha256OfFile(model);
+    // The JSON beside the model holds its threshold and component rules: both change the output.
+    return "crack_model_sha256=" + Sha256OfFile(model) +
+           ";crack_model_json_sha256=" + Sha256OfFile(fs::path(model).replace_extension(".json"));
   } catch (const std::runtime_error&) {
     return "crack_model_missing=" + model.string();  // the run fails naming it
   }

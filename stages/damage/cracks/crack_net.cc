@@ -49,13 +49,17 @@ cv::dnn::Net NetFrom(const LoadedModel& m) {
   }
 }
 
-// One normalised, padded tile through the net: probabilities of the tile's own size.
-cv::Mat RunTile(cv::dnn::Net& net, const cv::Mat& grey, int stride, const fs::path& path) {
+// One normalised, padded tile through the net: probabilities of the tile's own size. A tile
+// flatter than min_std grey levels is stretched no more than that: no training photograph was
+// flatter, and stretching sensor noise to unit variance makes it look like texture with cracks.
+cv::Mat RunTile(cv::dnn::Net& net, const cv::Mat& grey, const CrackModelInfo& info) {
+  const int stride = info.stride_px;
+  const fs::path& path = info.path;
   cv::Mat f;
   grey.convertTo(f, CV_32F);
   cv::Scalar mean, sd;
   cv::meanStdDev(f, mean, sd);
-  f = (f - mean[0]) / std::max(sd[0], 1.0);
+  f = (f - mean[0]) / std::max(sd[0], info.min_std_grey);
   const int pad_b = (stride - f.rows % stride) % stride, pad_r = (stride - f.cols % stride) % stride;
   // numpy's "reflect" in training: the edge pixel not repeated.
   const int border = f.rows > pad_b && f.cols > pad_r ? cv::BORDER_REFLECT_101 : cv::BORDER_REPLICATE;
@@ -101,16 +105,25 @@ const LoadedModel& Loaded(const fs::path& path) {
     const nlohmann::json j = nlohmann::json::parse(in);
     m->info.threshold = j.at("threshold").get<double>();
     m->info.stride_px = j.value("stride_px", 8);
+    m->info.min_std_grey = j.value("min_std_grey", 1.0);
+    if (j.contains("components")) {
+      m->info.min_length_px = j.at("components").at("min_length_px").get<int>();
+      m->info.min_elongation = j.at("components").at("min_elongation").get<double>();
+      if (m->info.min_length_px < 2 || !(m->info.min_elongation >= 1))
+        throw CrackModelError(meta.string() + ": components need min_length_px >= 2 and min_elongation >= 1");
+    }
   } catch (const nlohmann::json::exception& e) {
     throw CrackModelError(meta.string() + ": " + e.what());
   }
   if (!(m->info.threshold > 0 && m->info.threshold < 1))
     throw CrackModelError(meta.string() + ": threshold must lie in (0, 1)");
+  if (!(m->info.min_std_grey >= 1 && m->info.min_std_grey <= 64))
+    throw CrackModelError(meta.string() + ": min_std_grey must lie in [1, 64]");
   if (m->info.stride_px < 1 || m->info.stride_px > 64)
     throw CrackModelError(meta.string() + ": stride_px must lie in [1, 64]");
   // Imported and run once here, so that a file OpenCV cannot use fails on first use with its name.
   cv::dnn::Net net = NetFrom(*m);
-  RunTile(net, cv::Mat(2 * m->info.stride_px, 2 * m->info.stride_px, CV_8U, cv::Scalar(128)), m->info.stride_px, path);
+  RunTile(net, cv::Mat(2 * m->info.stride_px, 2 * m->info.stride_px, CV_8U, cv::Scalar(128)), m->info);
   return *g_models.emplace(key, std::move(m)).first->second;
 }
 
@@ -138,8 +151,7 @@ cv::Mat CrackProbability(const cv::Mat& grey, const fs::path& path) {
   auto it = nets.find(key);
   if (it == nets.end()) it = nets.emplace(key, NetFrom(m)).first;
   cv::dnn::Net& net = it->second;
-  const int stride = m.info.stride_px;
-  if (grey.rows <= kWhole && grey.cols <= kWhole) return RunTile(net, grey, stride, path);
+  if (grey.rows <= kWhole && grey.cols <= kWhole) return RunTile(net, grey, m.info);
   cv::Mat prob(grey.size(), CV_32F);
   const int core = kTile - 2 * kMargin;
   for (int y = 0; y < grey.rows; y += core)
@@ -147,7 +159,7 @@ cv::Mat CrackProbability(const cv::Mat& grey, const fs::path& path) {
       const cv::Rect inner(x, y, std::min(core, grey.cols - x), std::min(core, grey.rows - y));
       const cv::Rect outer = cv::Rect(x - kMargin, y - kMargin, inner.width + 2 * kMargin, inner.height + 2 * kMargin) &
                              cv::Rect(0, 0, grey.cols, grey.rows);
-      const cv::Mat p = RunTile(net, grey(outer), stride, path);
+      const cv::Mat p = RunTile(net, grey(outer), m.info);
       p(inner - outer.tl()).copyTo(prob(inner));
     }
   return prob;

@@ -26,6 +26,13 @@ struct CrackModelInfo {
   std::string sha256;          ///< of the .onnx file's bytes
   double threshold = 0.5;      ///< probability chosen on the training hold-out ("threshold")
   int stride_px = 8;           ///< input sides must be multiples of this ("stride_px")
+  /// A tile's standard deviation is taken as at least this many grey levels ("min_std_grey":
+  /// the flattest training photograph's, rounded down; 1 where the JSON has none).
+  double min_std_grey = 1;
+  /// The component rules that go with the model ("components": chosen on the training hold-out
+  /// like the threshold); 0 where the JSON has none: the options' min_length_px, min_elongation.
+  int min_length_px = 0;
+  double min_elongation = 0;
 };
 
 /// The committed model: the source tree's stages/damage/cracks/model/crack_net.onnx when it
@@ -43,7 +50,8 @@ const CrackModelInfo& LoadCrackModel(const std::filesystem::path& path);
 
 /// Crack probability (CV_32F in [0, 1], the image's size) of `grey` (CV_8U) by the model at
 /// `path`. Each tile (the whole image up to 384 px a side, else 320 px tiles overlapping by 64)
-/// is normalised to mean 0, standard deviation 1 (at least 1 grey level), as in training, and
+/// is normalised to mean 0, standard deviation 1 (a standard deviation taken as at least the
+/// model's min_std_grey), as in training, and
 /// padded by reflection to the model's stride. Safe to call from several threads (one network
 /// instance per thread).
 cv::Mat CrackProbability(const cv::Mat& grey, const std::filesystem::path& path);

@@ -433,7 +433,10 @@ CrackDetection DetectCracks(const cv::Mat& image, const cv::Mat& road_mask, cons
     out.response_threshold = o.learned_threshold > 0 ? o.learned_threshold : model.threshold;
     const cv::Mat cand = (response >= std::ceil(out.response_threshold * 255.0 - 1e-6)) & search;
     const cv::Mat zero = cv::Mat::zeros(image.size(), CV_8U);
-    MeasureComponents(cand, {response, zero, zero, 1.0, true}, pixel_size_m, o, out);
+    CrackOptions rules = o;  // the model's own component rules, where it carries them
+    if (model.min_length_px > 0) rules.min_length_px = model.min_length_px;
+    if (model.min_elongation > 0) rules.min_elongation = model.min_elongation;
+    MeasureComponents(cand, {response, zero, zero, 1.0, true}, pixel_size_m, rules, out);
     return out;
   }
   // Robust level of the texture response (median + k·1.4826·MAD over the searched road), per
