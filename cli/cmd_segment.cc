@@ -12,6 +12,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "cli/command.h"
+#include "cli/option_flags.h"
 #include "cli/tool_util.h"
 #include "formats/input_error.h"
 #include "formats/stereo/image_io.h"
@@ -77,12 +78,20 @@ Command SegmentCommand() {
                               ->check(CLI::PositiveNumber);
             level->needs(sigma);
             sigma->needs(level);
-            return [a] {
+            auto flags = std::make_shared<OptionFlags>();
+            flags->Add(app, "segment", SegmentOptions::Table(), "Segmentation options (the damage stage's segment.*)",
+                       {"min_area_px", "min_threshold_sigma", "level_cell_px", "min_wall_steepness"});
+            return [a, flags] {
               DamageOptions options;
               options.segment.min_area_px = a->min_area_px;
               options.segment.min_threshold_sigma = a->min_threshold_sigma;
               options.segment.level_cell_px = a->level_cell_px;
               options.segment.min_wall_steepness = a->min_wall_steepness;
+              if (const nlohmann::json overrides = flags->Overrides(); overrides.contains("segment")) {
+                const auto& table = SegmentOptions::Table();
+                options.segment =
+                    table.FromJson(table.Merge(overrides["segment"], "segment", table.ToJson(options.segment)));
+              }
               options.crack.enabled = !a->no_cracks;
               CheckAsOption([&] { options.Check(); });
               const cv::Mat transformed = ReadImageAnyDepth(a->input, true);

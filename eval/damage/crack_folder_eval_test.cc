@@ -4,6 +4,7 @@
 // here (_OPTIONS='{...}' crack options, _MAX=n images) and prints the figures.
 #include "eval/damage/crack_folder_eval.h"
 
+#include "stages/damage/cracks/crack_model_testing.h"
 #include "stages/damage/cracks/crack_net.h"
 #include "tests/support/test_data.h"
 
@@ -38,13 +39,6 @@ void Print(const char* what, const CrackFolderEvaluation& e) {
               what, e.detector.c_str(), e.images.size(), s.Precision(), s.Recall(), s.F1(), e.images_without_crack,
               s.predicted, e.wall_s);
 }
-
-#define RS_REQUIRE_CRACK_MODEL()                                                       \
-  do {                                                                                 \
-    if (!std::filesystem::exists(DefaultCrackModelPath()))                             \
-      GTEST_SKIP() << "no learned crack model at " << DefaultCrackModelPath().string() \
-                   << " (stages/damage/cracks/model/train_crack_net.py writes it)";    \
-  } while (0)
 
 // The valid splits, whole, the classical (ridge) detector's default options, 2 px tolerance
 // (~20 s together). Measured figures

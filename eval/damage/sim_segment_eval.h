@@ -54,4 +54,11 @@ struct SimSegmentEvaluation {
 SimSegmentEvaluation EvaluateSimulatedSegmentation(const std::filesystem::path& survey_dir,
                                                    const SimSegmentEvalOptions& options);
 
+/// The same frames under several segmentation settings (options.damage with each `variants`
+/// entry as its segment options), one evaluation per entry: each frame's disparity is computed
+/// once. Debug overlays, when asked for, are those of the last variant.
+std::vector<SimSegmentEvaluation> EvaluateSimulatedSegmentation(const std::filesystem::path& survey_dir,
+                                                                const SimSegmentEvalOptions& options,
+                                                                const std::vector<SegmentOptions>& variants);
+
 }  // namespace rs

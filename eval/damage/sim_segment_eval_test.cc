@@ -3,7 +3,9 @@
 // simulator"); ROADSURVEY_SIM_SEGMENT_DIR=<a `roadsurvey simulate` folder> runs one folder, with
 // ROADSURVEY_SIM_SEGMENT_OPTIONS='{"level_cell_px": 64}' (segment.* options as JSON) and
 // ROADSURVEY_SIM_SEGMENT_STEP (every n-th frame, default 3), ROADSURVEY_SIM_SEGMENT_DEBUG (a folder
-// for overlays).
+// for overlays), ROADSURVEY_SIM_SEGMENT_ALL_FRAMES=1 (frames without a pothole scored too: their
+// instances count as false pixels); ROADSURVEY_SIM_SEGMENT_SWEEP='[{"grow_fraction": 0.4}, {"grow_fraction": 0.6}]'
+// scores each setting (over the options above) on the same disparities, one line each.
 #include "eval/damage/sim_segment_eval.h"
 
 #include "sim/simulate.h"
@@ -65,9 +67,22 @@ TEST(SimSegmentEval, Folder) {
   if (const char* step = std::getenv("ROADSURVEY_SIM_SEGMENT_STEP")) o.frame_step = std::atoi(step);
   else o.frame_step = 3;
   if (const char* debug = std::getenv("ROADSURVEY_SIM_SEGMENT_DEBUG")) o.debug_dir = debug;
+  o.potholes_only = std::getenv("ROADSURVEY_SIM_SEGMENT_ALL_FRAMES") == nullptr;
   if (const char* json = std::getenv("ROADSURVEY_SIM_SEGMENT_OPTIONS")) {
     const auto& table = SegmentOptions::Table();
     o.damage.segment = table.FromJson(table.Merge(nlohmann::json::parse(json), "segment"));
+  }
+  if (const char* sweep = std::getenv("ROADSURVEY_SIM_SEGMENT_SWEEP")) {  // a JSON array of segment.* objects
+    const auto& table = SegmentOptions::Table();
+    const nlohmann::json variants = nlohmann::json::parse(sweep);
+    std::vector<SegmentOptions> segment;
+    for (const auto& v : variants) segment.push_back(table.FromJson(table.Merge(v, "segment", table.ToJson(o.damage.segment))));
+    const std::vector<SimSegmentEvaluation> r = EvaluateSimulatedSegmentation(dir, o, segment);
+    for (size_t i = 0; i < r.size(); ++i)
+      std::cout << fmt::format("sweep {} P {:.3f} R {:.3f} F1 {:.3f} found {}/{} false_frames {}\n", variants[i].dump(),
+                               r[i].pixels.precision, r[i].pixels.recall, r[i].pixels.f1, r[i].potholes_found.size(),
+                               r[i].potholes_found.size() + r[i].potholes_missed.size(), r[i].false_frames);
+    return;
   }
   const SimSegmentEvaluation r = EvaluateSimulatedSegmentation(dir, o);
   std::cout << r.Report();

@@ -1,5 +1,6 @@
 #include "stages/damage/cracks/cracks.h"
 
+#include "stages/damage/cracks/crack_model_testing.h"
 #include "stages/damage/cracks/crack_net.h"
 #include "tests/support/test_data.h"
 
@@ -31,13 +32,6 @@ CrackOptions Learned() {
   o.detector = CrackOptions::Detector::kLearned;
   return o;
 }
-
-#define RS_REQUIRE_CRACK_MODEL()                                                       \
-  do {                                                                                 \
-    if (!std::filesystem::exists(DefaultCrackModelPath()))                             \
-      GTEST_SKIP() << "no learned crack model at " << DefaultCrackModelPath().string() \
-                   << " (stages/damage/cracks/model/train_crack_net.py writes it)";    \
-  } while (0)
 
 cv::Mat Asphalt(unsigned seed) {
   cv::Mat noise(480, 640, CV_32F);
