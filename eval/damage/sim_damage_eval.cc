@@ -28,36 +28,10 @@ namespace rs {
 namespace fs = std::filesystem;
 namespace {
 
-struct TruthDamage {
-  std::string type;
-  double area_m2 = 0, max_depth_m = 0, volume_m3 = 0, mean_diameter_m = 0;
-  std::string severity;
-};
-
 struct TruthObstacle {
   bool box = true;
   Eigen::Vector3d centre, half;
 };
-
-double Num(const nlohmann::json& p, const char* key) {
-  return p.contains(key) && p[key].is_number() ? p[key].get<double>() : 0.0;
-}
-
-std::map<int, TruthDamage> ReadTruthDamages(const fs::path& path) {
-  const geojson::FeatureCollection fc = geojson::ReadFeatureCollection(path);
-  std::map<int, TruthDamage> out;
-  for (const auto& f : fc.features) {
-    const auto& p = f.properties;
-    const TruthFeatureKey key = ReadTruthFeatureKey(p, path);
-    TruthDamage d;
-    d.type = key.type;
-    d.area_m2 = Num(p, "area_m2"), d.max_depth_m = Num(p, "max_depth_m"), d.volume_m3 = Num(p, "volume_m3");
-    d.mean_diameter_m = Num(p, "mean_diameter_m");
-    d.severity = p.contains("severity") && p["severity"].is_string() ? p["severity"].get<std::string>() : "";
-    out[key.id] = d;
-  }
-  return out;
-}
 
 std::vector<TruthObstacle> ReadObstacles(const fs::path& path, const nlohmann::json& j) {
   std::vector<TruthObstacle> out;

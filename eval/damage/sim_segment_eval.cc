@@ -1,7 +1,6 @@
 #include "eval/damage/sim_segment_eval.h"
 
 #include "eval/damage/sim_truth.h"
-#include "formats/geojson/geojson.h"
 #include "stages/damage/damage_pipeline.h"
 #include "stages/damage/output/damage_output.h"
 
@@ -26,13 +25,9 @@ struct TruthKinds {
 
 TruthKinds ReadTruthKinds(const std::filesystem::path& path) {
   TruthKinds k;
-  for (const auto& f : geojson::ReadFeatureCollection(path).features) {
-    const TruthFeatureKey key = ReadTruthFeatureKey(f.properties, path);
-    (key.type == "pothole" ? k.potholes : k.others).insert(key.id);
-    const auto num = [&](const char* name) {
-      return f.properties.contains(name) && f.properties[name].is_number() ? f.properties[name].get<double>() : 0.0;
-    };
-    if (key.type == "pothole") k.size[key.id] = {num("max_depth_m"), num("mean_diameter_m")};
+  for (const auto& [id, d] : ReadTruthDamages(path)) {
+    (d.type == "pothole" ? k.potholes : k.others).insert(id);
+    if (d.type == "pothole") k.size[id] = {d.max_depth_m, d.mean_diameter_m};
   }
   return k;
 }

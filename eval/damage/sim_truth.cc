@@ -1,5 +1,6 @@
 #include "eval/damage/sim_truth.h"
 
+#include "formats/geojson/geojson.h"
 #include "formats/input_error.h"
 #include "formats/stereo/calibration_yaml.h"
 #include "formats/trajectory/tum_trajectory.h"
@@ -71,6 +72,24 @@ TruthFeatureKey ReadTruthFeatureKey(const nlohmann::json& p, const std::filesyst
       !p["type"].is_string())
     throw InputError(InputLocation::File(path.string()), "damage feature without integer id and type");
   return {p["id"].get<int>(), p["type"].get<std::string>()};
+}
+
+std::map<int, TruthDamage> ReadTruthDamages(const std::filesystem::path& path) {
+  const auto num = [](const nlohmann::json& p, const char* key) {
+    return p.contains(key) && p[key].is_number() ? p[key].get<double>() : 0.0;
+  };
+  std::map<int, TruthDamage> out;
+  for (const auto& f : geojson::ReadFeatureCollection(path).features) {
+    const auto& p = f.properties;
+    const TruthFeatureKey key = ReadTruthFeatureKey(p, path);
+    TruthDamage d;
+    d.type = key.type;
+    d.area_m2 = num(p, "area_m2"), d.max_depth_m = num(p, "max_depth_m"), d.volume_m3 = num(p, "volume_m3");
+    d.mean_diameter_m = num(p, "mean_diameter_m");
+    d.severity = p.contains("severity") && p["severity"].is_string() ? p["severity"].get<std::string>() : "";
+    out[key.id] = d;
+  }
+  return out;
 }
 
 }  // namespace rs

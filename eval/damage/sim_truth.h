@@ -11,6 +11,7 @@
 #include <opencv2/core.hpp>
 
 #include <filesystem>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -44,5 +45,17 @@ struct TruthFeatureKey {
   std::string type;
 };
 TruthFeatureKey ReadTruthFeatureKey(const nlohmann::json& properties, const std::filesystem::path& path);
+
+/// One damage of truth/damages.geojson: its type and the measurements the evaluators score
+/// (0 where the feature has none).
+struct TruthDamage {
+  std::string type;
+  double area_m2 = 0, max_depth_m = 0, volume_m3 = 0, mean_diameter_m = 0;
+  std::string severity;
+};
+
+/// Every damage of a truth/damages.geojson by id; throws InputError naming `path` on a feature
+/// without integer id and type.
+std::map<int, TruthDamage> ReadTruthDamages(const std::filesystem::path& path);
 
 }  // namespace rs
