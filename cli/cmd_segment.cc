@@ -17,6 +17,7 @@
 #include "formats/input_error.h"
 #include "formats/stereo/image_io.h"
 #include "stages/damage/output/damage_output.h"
+#include "stages/damage/cracks/cracks.h"
 #include "stages/damage/damage_pipeline.h"
 
 namespace rs {
@@ -123,6 +124,9 @@ Command SegmentCommand() {
                   "instances       {} depressions, {} cracks (metric values unknown: a transformed "
                   "disparity carries no depth in metres)\n",
                   potholes_other, cracks);
+              if (options.crack.enabled && !left.empty())
+                fmt::print("crack detector  {}\n",
+                           CrackDetectorName(ResolveCrackDetector(options.crack, false, left.size()), false));
               if (!seg.instances.empty()) {
                 fmt::print("\n{:>4} {:<8} {:>9} {:>11} {:>22}\n", "id", "type", "pixels", "confidence",
                            "bbox (u, v, w, h)");
