@@ -4,7 +4,7 @@
 // label stays the truth; a shape reported as damage costs precision.
 #include "stages/damage/damage_pipeline.h"
 #include "eval/damage/damage_eval.h"
-#include "tests/support/test_data.h"
+#include "stages/damage/segment/fan2019_testing.h"
 
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
@@ -58,18 +58,12 @@ const std::vector<RoadShape>& Shapes() {
 }
 
 TEST(SegmentTransformedDisparity, Fan2019Dataset3UnderRoadShapes) {
-  const auto dir = test::DataRoot() / "pothole_stereo_fan2019" / "dataset3";
-  if (!std::filesystem::exists(dir / "disp_tg")) GTEST_SKIP() << "no fan2019 data at " << dir;
+  const std::vector<test::Fan2019Frame> frames = test::LoadFan2019Dataset3();
+  if (frames.empty()) GTEST_SKIP() << "no fan2019 data at " << test::Fan2019Dataset3Dir();
   for (const RoadShape& shape : Shapes()) {
     PixelMetrics overall;
     int instances = 0;
-    for (int i = 1; i <= 5; ++i) {
-      char name[16];
-      std::snprintf(name, sizeof name, "%02d.png", i);
-      const cv::Mat disp = cv::imread((dir / "disp_tg" / name).string(), cv::IMREAD_UNCHANGED);
-      const cv::Mat label = cv::imread((dir / "label" / name).string(), cv::IMREAD_GRAYSCALE);
-      ASSERT_FALSE(disp.empty());
-      ASSERT_FALSE(label.empty());
+    for (const auto& [name, disp, label] : frames) {
       cv::Mat value;
       disp.convertTo(value, CV_32F);
       const cv::Mat valid = disp > 0, hole = (label > 0) & valid, road = (label == 0) & valid;
@@ -96,7 +90,7 @@ TEST(SegmentTransformedDisparity, Fan2019Dataset3UnderRoadShapes) {
       const TransformedSegmentation seg = SegmentTransformedDisparity(value, cv::Mat(), options);
       const PixelMetrics pm = ComparePixels(seg.labels, label);
       std::printf("%-12s %s: depth %.0f radius %.0f px, %zu instances, P %.3f R %.3f F1 %.3f\n", shape.name.c_str(),
-                  name, depth, r, seg.instances.size(), pm.precision, pm.recall, pm.f1);
+                  name.c_str(), depth, r, seg.instances.size(), pm.precision, pm.recall, pm.f1);
       instances += static_cast<int>(seg.instances.size());
       overall.Add(pm);
     }

@@ -3,7 +3,7 @@
 #include "stages/damage/damage_pipeline.h"
 #include "stages/damage/noise/image_edges.h"
 #include "stages/damage/noise/relief_noise.h"
-#include "tests/support/test_data.h"
+#include "stages/damage/segment/fan2019_testing.h"
 
 #include "eval/damage/damage_eval.h"
 
@@ -20,8 +20,6 @@
 
 namespace rs {
 namespace {
-
-std::filesystem::path DataRoot() { return rs::test::DataRoot(); }
 
 // Flat noisy road at `level` with two bowls below it; returns truth mask via `truth`.
 cv::Mat SyntheticRelief(int depth, double level, double sigma, double scale, cv::Mat* truth) {
@@ -197,16 +195,10 @@ TEST(SegmentDepressions, RejectsMultiChannel) {
 // fan2019 dataset3: the authors' transformed disparity (16-bit, scale undocumented) against
 // their pixel labels. Done criterion: pooled pixel F1 ≥ 0.90.
 TEST(SegmentDepressions, Fan2019Dataset3) {
-  const auto dir = DataRoot() / "pothole_stereo_fan2019" / "dataset3";
-  if (!std::filesystem::exists(dir / "disp_tg")) GTEST_SKIP() << "no fan2019 data at " << dir;
+  const std::vector<test::Fan2019Frame> frames = test::LoadFan2019Dataset3();
+  if (frames.empty()) GTEST_SKIP() << "no fan2019 data at " << test::Fan2019Dataset3Dir();
   PixelMetrics overall;
-  for (int i = 1; i <= 5; ++i) {
-    char name[16];
-    std::snprintf(name, sizeof name, "%02d.png", i);
-    const cv::Mat disp = cv::imread((dir / "disp_tg" / name).string(), cv::IMREAD_UNCHANGED);
-    const cv::Mat label = cv::imread((dir / "label" / name).string(), cv::IMREAD_GRAYSCALE);
-    ASSERT_FALSE(disp.empty());
-    ASSERT_FALSE(label.empty());
+  for (const auto& [name, disp, label] : frames) {
     DamageOptions options;  // as `roadsurvey segment --no-cracks`
     options.crack.enabled = false;
     const TransformedSegmentation seg = SegmentTransformedDisparity(disp, cv::Mat(), options);
@@ -214,8 +206,8 @@ TEST(SegmentDepressions, Fan2019Dataset3) {
     std::printf(
         "fan2019 dataset3 %s: instances %zu threshold %.1f sigma (level %.0f, sigma %.0f) "
         "P %.3f R %.3f F1 %.3f IoU %.3f\n",
-        name, seg.instances.size(), seg.threshold_sigma, seg.scale.road_level, seg.scale.sigma, m.precision, m.recall,
-        m.f1, m.iou);
+        name.c_str(), seg.instances.size(), seg.threshold_sigma, seg.scale.road_level, seg.scale.sigma, m.precision,
+        m.recall, m.f1, m.iou);
     EXPECT_GT(m.f1, 0.85) << name;
     overall.Add(m);
   }
