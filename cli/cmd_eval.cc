@@ -334,12 +334,13 @@ struct CracksArgs {
 };
 
 int RunEvalCracks(const CracksArgs& a) {
-  nlohmann::json oj = CrackOptions::Table().ToJson(CrackOptions{});
+  const auto& options_table = CrackOptions::Table();
   const nlohmann::json overrides = a.flags.Overrides();
-  if (overrides.contains("crack")) oj.update(overrides["crack"]);
+  nlohmann::json oj =
+      overrides.contains("crack") ? options_table.Merge(overrides["crack"], "crack") : options_table.Defaults();
   oj["detector"] = a.detector;
   oj["model"] = a.model;
-  CrackOptions options = CrackOptions::Table().FromJson(oj);
+  CrackOptions options = options_table.FromJson(oj);
   options.Check();
   const CrackFolderEvaluation e = EvaluateCrackFolder(a.dir, options, a.tolerance_px, a.max_images, a.debug);
   nlohmann::json images = nlohmann::json::array();

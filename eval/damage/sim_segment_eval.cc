@@ -74,16 +74,17 @@ PreparedFrame PrepareFrame(const SimSurveyTruth& survey, size_t k, const TruthKi
   return p;
 }
 
-// Segments one prepared frame with `damage` and adds its score to `r`.
+// Segments one prepared frame with `damage` and adds its score to `r`; `draw`: writes the debug
+// overlay (when options ask for one).
 void ScoreFrame(const PreparedFrame& p, const TruthKinds& kinds, const DamageOptions& damage,
-                const SimSegmentEvalOptions& o, SimSegmentEvaluation& r) {
+                const SimSegmentEvalOptions& o, bool draw, SimSegmentEvaluation& r) {
   ++r.frames;
   TransformedSegmentation seg;
   seg.labels = cv::Mat::zeros(p.truth.size(), CV_16U);
   if (!p.transformed.empty() && cv::countNonZero(p.transformed > 0) >= 100)
     seg = SegmentTransformedDisparity(p.transformed, cv::Mat(), damage);
   const cv::Mat& labels = seg.labels;
-  if (!o.debug_dir.empty()) {
+  if (draw && !o.debug_dir.empty()) {
     std::filesystem::create_directories(o.debug_dir);
     cv::Mat overlay = RenderOverlay(p.left, labels, seg.instances);
     std::vector<std::vector<cv::Point>> contours;
@@ -154,7 +155,7 @@ std::vector<SimSegmentEvaluation> EvaluateSimulatedSegmentation(const std::files
     ++frames;
     // The analysed range does not depend on the segmentation options: the first variant's.
     const PreparedFrame p = PrepareFrame(survey, k, kinds, o, damages.empty() ? o.damage : damages.front());
-    for (size_t i = 0; i < damages.size(); ++i) ScoreFrame(p, kinds, damages[i], o, out[i]);
+    for (size_t i = 0; i < damages.size(); ++i) ScoreFrame(p, kinds, damages[i], o, i + 1 == damages.size(), out[i]);
   }
   return out;
 }

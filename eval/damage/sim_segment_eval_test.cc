@@ -64,8 +64,10 @@ TEST(SimSegmentEval, Folder) {
   const char* dir = std::getenv("ROADSURVEY_SIM_SEGMENT_DIR");
   if (!dir) GTEST_SKIP() << "set ROADSURVEY_SIM_SEGMENT_DIR to a `roadsurvey simulate` folder";
   SimSegmentEvalOptions o;
-  if (const char* step = std::getenv("ROADSURVEY_SIM_SEGMENT_STEP")) o.frame_step = std::atoi(step);
-  else o.frame_step = 3;
+  if (const char* step = std::getenv("ROADSURVEY_SIM_SEGMENT_STEP"))
+    o.frame_step = std::atoi(step);
+  else
+    o.frame_step = 3;
   if (const char* debug = std::getenv("ROADSURVEY_SIM_SEGMENT_DEBUG")) o.debug_dir = debug;
   o.potholes_only = std::getenv("ROADSURVEY_SIM_SEGMENT_ALL_FRAMES") == nullptr;
   if (const char* json = std::getenv("ROADSURVEY_SIM_SEGMENT_OPTIONS")) {
@@ -76,7 +78,8 @@ TEST(SimSegmentEval, Folder) {
     const auto& table = SegmentOptions::Table();
     const nlohmann::json variants = nlohmann::json::parse(sweep);
     std::vector<SegmentOptions> segment;
-    for (const auto& v : variants) segment.push_back(table.FromJson(table.Merge(v, "segment", table.ToJson(o.damage.segment))));
+    for (const auto& v : variants)
+      segment.push_back(table.FromJson(table.Merge(v, "segment", table.ToJson(o.damage.segment))));
     const std::vector<SimSegmentEvaluation> r = EvaluateSimulatedSegmentation(dir, o, segment);
     for (size_t i = 0; i < r.size(); ++i)
       std::cout << fmt::format("sweep {} P {:.3f} R {:.3f} F1 {:.3f} found {}/{} false_frames {}\n", variants[i].dump(),
