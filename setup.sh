@@ -15,6 +15,7 @@ packages=(
   libgtest-dev libgmock-dev
   clang libclang-rt-14-dev
   colmap
+  libtiff-dev libgeotiff-dev
   gdal-bin
 )
 

@@ -2,6 +2,7 @@
 #include "cli/command.h"
 #include "stages/damage/damage_stage.h"
 #include "stages/damage_map/damage_map_stage.h"
+#include "stages/surface/surface_stage.h"
 #include "stages/disparity/disparity_stage.h"
 #include "stages/georeference/georeference_stage.h"
 #include "stages/ingest/ingest_stage.h"
@@ -19,6 +20,7 @@ void RegisterBuiltinStages(StageRegistry& registry) {
   registry.Add(std::make_unique<RefineStage>());
   registry.Add(std::make_unique<GeoreferenceStage>());
   registry.Add(std::make_unique<DamageMapStage>());
+  registry.Add(std::make_unique<SurfaceStage>());
 }
 
 }  // namespace rs

@@ -23,6 +23,8 @@
 #include "eval/damage/pothole_scan_eval.h"
 #include "eval/damage/sim_damage_eval.h"
 #include "eval/damage_map/damage_map_eval.h"
+#include "eval/surface/pair_density.h"
+#include "eval/surface/surface_eval.h"
 #include "eval/disparity/disparity_eval.h"
 #include "eval/georeference/georeference_eval.h"
 #include "formats/disparity/disparity_io.h"
@@ -499,6 +501,38 @@ int RunEvalDamageMap(DamageMapArgs a) {
   return kExitOk;
 }
 
+// ---------------------------------------------------------------- surface products of a simulated survey
+
+struct SurfaceArgs {
+  std::string survey_dir, output, json, error_image;
+};
+
+int RunEvalSurface(const SurfaceArgs& a) {
+  const SurfaceEvaluation e = EvaluateSurface(a.survey_dir, a.output, a.error_image);
+  if (a.json != "-") fmt::print("{}", e.Table());
+  if (!a.json.empty()) WriteTextOutput(a.json, e.ToJson().dump(2) + "\n");
+  return kExitOk;
+}
+
+struct SurfacePairsArgs {
+  std::string dir, json;
+  std::vector<double> cells_m = {0.01, 0.002};
+};
+
+int RunEvalSurfacePairs(const SurfacePairsArgs& a) {
+  const std::vector<PairDensityRow> rows = EvaluatePairDensity(a.dir, a.cells_m);
+  fmt::print("{}", PairDensityTable(rows));
+  if (!a.json.empty()) {
+    nlohmann::json j = nlohmann::json::array();
+    for (const auto& r : rows)
+      j.push_back({{"pair", r.left}, {"cell_m", r.cell_m}, {"pixel_m", r.pixel_m}, {"visible_cells", r.visible_cells},
+                   {"filled_cells", r.filled_cells}, {"filled_fraction", r.filled_fraction},
+                   {"pixel_density", r.pixel_density}});
+    WriteTextOutput(a.json, j.dump(2) + "\n");
+  }
+  return kExitOk;
+}
+
 struct PotholeScanArgs {
   std::string dir;
   std::vector<int> pairs = {1, 3, 4, 5};
@@ -668,6 +702,24 @@ Command EvalCommand() {
                          "summary tolerance of |volume error|, %")
             ->check(CLI::PositiveNumber);
 
+        auto sf = std::make_shared<SurfaceArgs>();
+        CLI::App* surf = app.add_subcommand(
+            "surface", "a simulated survey's surface/dsm.tif and mesh.ply (after `roadsurvey run`) vs truth/road_surface.ply");
+        surf->add_option("survey", sf->survey_dir, "folder written by `roadsurvey simulate`")->required();
+        surf->add_option("--output", sf->output, "the run's output folder (default: survey.json's \"output\")");
+        surf->add_option("--json", sf->json, "write the evaluation as JSON ('-' = stdout)");
+        surf->add_option("--error-image", sf->error_image,
+                         "write DSM - truth (cameras' error removed) as a PNG, +-20 mm through the turbo colour map");
+
+        auto sp = std::make_shared<SurfacePairsArgs>();
+        CLI::App* spairs = app.add_subcommand(
+            "surface-pairs", "surface grid density of single real pairs without poses (Fan 2021 model3 layout)");
+        spairs->add_option("dir", sp->dir, "folder with left images/L<i>.png, right images/R<i>.png, calibration_rectified.yaml")
+            ->required()
+            ->check(CLI::ExistingDirectory);
+        spairs->add_option("--cells", sp->cells_m, "grid cells to measure at, m")->delimiter(',');
+        spairs->add_option("--json", sp->json, "also write the rows as JSON");
+
         auto ps = std::make_shared<PotholeScanArgs>();
         CLI::App* scan = app.add_subcommand(
             "pothole-scan",
@@ -686,6 +738,8 @@ Command EvalCommand() {
           if (scan->parsed()) return RunEvalPotholeScan(*ps);
           if (sim->parsed()) return RunEvalSimulatedDamage(*sd);
           if (dmap->parsed()) return RunEvalDamageMap(*dm);
+          if (surf->parsed()) return RunEvalSurface(*sf);
+          if (spairs->parsed()) return RunEvalSurfacePairs(*sp);
           if (disp->parsed()) return RunEvalDisparity(*d);
           if (georef->parsed()) return RunEvalGeoreference(*geo);
           if (dmg->parsed()) return RunEvalDamage(*g);

@@ -155,6 +155,7 @@ void PrepareRoadMask(DamageFrame& s) {
   // an obstacle (road_islands.h): no damage is found on them.
   s.islands = RoadIslandMask(s.relief.valid, s.area, s.o.road.min_region_m2);
   s.has_islands = cv::countNonZero(s.islands) > 0;
+  s.f.road_mask = s.has_islands ? cv::Mat(s.relief.valid & (s.islands == 0)) : s.relief.valid.clone();
   // The crack response needs the pixel sizes (element sized on the road): alongside the segmentation.
   if (s.want_cracks)
     s.image_work.run([&s] { s.crack_response = CrackResponse(s.left_image, s.o.crack, s.pixel_size); });

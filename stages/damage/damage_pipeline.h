@@ -38,6 +38,9 @@ struct FrameDamage {
   RoadSurface surface;
   RoadRelief relief;
   cv::Mat labels;                         ///< CV_16U: depressions 1..k, then cracks k+1..n
+  /// CV_8U, 255 on the road as the frame analysed it (damage included): valid disparity within the
+  /// analysed range, not an obstacle, not an island of mismatches cut off from the road.
+  cv::Mat road_mask;
   std::vector<DamageInstance> instances;  ///< graded, ids match `labels`
   double threshold_sigma = 0;             ///< segmentation threshold, σ below the road
   double analysed_range_m = 0;            ///< farthest camera depth analysed (AnalysedRangeM), m

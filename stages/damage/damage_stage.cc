@@ -57,7 +57,7 @@ StageInfo DamageStage::Info() {
   info.name = "damage";
   // 2: cracks carry outline_cam_m (their outline on the fitted road); 3: detections.json names
   // the crack detector (crack.detector: auto, learned, ridge, black-hat)
-  info.version = 3;
+  info.version = 4;
   info.doc =
       "Per frame: robust 3-D road surface (obstacles removed), depth below the road, unsupervised damage "
       "segmentation, per-damage area, depth, volume, size, crack width/length, ASTM/FHWA severity.";
@@ -110,6 +110,7 @@ void DamageStage::Run(StageContext& ctx, const DamageStageOptions& o) const {
           throw InputError(InputLocation::File((in_dir / disparity_files::kDisparity).string()), e.what());
         }
         WriteLabelPng((tmp / "labels.png").string(), result.labels);
+        if (!result.road_mask.empty()) WriteImageFile(tmp / "road.png", result.road_mask);
         nlohmann::json detections = {
             {"frame", f.id.value},
             {"t_ns", f.t_ns},
