@@ -150,8 +150,9 @@ cv::Mat Carriageway(const cv::Mat& truth) {
 }
 
 // Holes inside the imaged road: truth road cells within the closed footprint of the fused cells
-// that the DSM leaves empty; the widest hole's width.
-void MeasureHoles(const cv::Mat& ours, const cv::Mat& road, double cell, SurfaceEvaluation* e) {
+// that the DSM leaves empty, enclosed by filled cells; the widest hole's width.
+void MeasureHoles(const cv::Mat& ours, const cv::Mat& road, double cell, const Eigen::Vector2d& origin,
+                  SurfaceEvaluation* e) {
   const cv::Mat filled = FiniteMask(ours);
   const int k = 2 * static_cast<int>(std::ceil(kImagedCloseM / cell)) + 1;
   cv::Mat imaged;
@@ -170,9 +171,21 @@ void MeasureHoles(const cv::Mat& ours, const cv::Mat& road, double cell, Surface
   for (int r = 0; r < labels.rows; ++r)
     for (int c = 0; c < labels.cols; ++c)
       if (const int l = labels.at<int>(r, c); l > 0) width[l] = std::max(width[l], 2.0 * dist.at<float>(r, c) * cell);
+  // A notch at the carriageway's edge (next to a kerb, where the DSM stops a few cells early) is not
+  // a hole inside the road: only regions enclosed by filled cells count.
+  cv::Mat outside = ~inside, touches;
+  cv::dilate(outside, touches, cv::Mat());
+  std::vector<char> at_edge(n, 0);
+  for (int r = 0; r < labels.rows; ++r)
+    for (int c = 0; c < labels.cols; ++c)
+      if (const int l = labels.at<int>(r, c); l > 0 && touches.at<uint8_t>(r, c)) at_edge[l] = 1;
   for (int i = 1; i < n; ++i) {
+    if (at_edge[i]) continue;
     e->largest_hole_m = std::max(e->largest_hole_m, width[i]);
-    e->holes_over_5cm += width[i] > kHoleLimitM;
+    if (width[i] <= kHoleLimitM) continue;
+    ++e->holes_over_5cm;
+    const cv::Point2d c(centroids.at<double>(i, 0), centroids.at<double>(i, 1));
+    e->holes.push_back({origin.x() + (c.x + 0.5) * cell, origin.y() - (c.y + 0.5) * cell, width[i]});
   }
 }
 
@@ -312,11 +325,24 @@ SurfaceEvaluation EvaluateSurface(const fs::path& survey_dir, const fs::path& ou
   e.absolute = Compare(ours.z, truth_abs, road);
   e.relative = Compare(ours.z, truth_rel.z, road);
   e.all_cells = Compare(ours.z, truth_rel.z, cv::Mat());
+  if (fs::exists(dir / "dsm_sigma.tif")) {
+    const GeoTiffRaster sigma = ReadGeoTiff(dir / "dsm_sigma.tif");
+    int64_t n = 0, within = 0;
+    double sum = 0;
+    for (int r = 0; r < ours.z.rows; ++r)
+      for (int c = 0; c < ours.z.cols; ++c) {
+        const float d = ours.z.at<float>(r, c) - truth_rel.z.at<float>(r, c), s = sigma.image.at<float>(r, c);
+        if (!std::isfinite(d) || road.at<uint8_t>(r, c) == 0 || !(s > 0)) continue;
+        ++n, sum += s, within += std::abs(d) <= 2 * s;
+      }
+    e.within_2_sigma = n ? double(within) / n : 0;
+    e.mean_sigma_m = n ? sum / n : 0;
+  }
   if (!error_image.empty()) WriteErrorImage(error_image, ours.z, truth_rel.z);
   e.planimetric_offset_m = PlanimetricOffset(ours.z, truth_abs, ours.cell);
   e.planimetric_error_m = e.planimetric_offset_m.norm();
   e.planimetric_relative_m = (e.planimetric_offset_m - e.placement_offset_m.head<2>()).norm();
-  MeasureHoles(ours.z, road, ours.cell, &e);
+  MeasureHoles(ours.z, road, ours.cell, {ours.x_min, ours.y_max}, &e);
   if (fs::exists(dir / "mesh.ply")) e.mesh = CompareMesh(dir, truth_rel, road, &e.mesh_vertices);
   return e;
 }
@@ -336,6 +362,8 @@ std::string SurfaceEvaluation::Table() const {
   s += row("DSM heights, cameras' local error removed", relative);
   if (mesh_vertices > 0) s += row("mesh surface, the same", mesh);
   s += row("every fused cell (verges, kerbs), the same", all_cells);
+  s += fmt::format("  stated sigma: mean {:.2f} mm; {:.1f} % of the carriageway's cells within 2 sigma (relative)\n",
+                   mean_sigma_m * 1000, within_2_sigma * 100);
   s += fmt::format("  cameras' placement error (ours - truth): E {:+.3f} N {:+.3f} U {:+.3f} m over {} cameras\n",
                    placement_offset_m.x(), placement_offset_m.y(), placement_offset_m.z(), placement_cameras);
   s += fmt::format("  DSM planimetric offset: E {:+.3f} N {:+.3f} m (|{:.3f}| m; {:.3f} m beyond the cameras')\n",
@@ -351,6 +379,8 @@ nlohmann::json SurfaceEvaluation::ToJson() const {
           {"absolute", absolute.ToJson()},
           {"relative", relative.ToJson()},
           {"all_cells", all_cells.ToJson()},
+          {"mean_sigma_m", mean_sigma_m},
+          {"within_2_sigma", within_2_sigma},
           {"placement_offset_m", {placement_offset_m.x(), placement_offset_m.y(), placement_offset_m.z()}},
           {"placement_cameras", placement_cameras},
           {"planimetric_offset_m", {planimetric_offset_m.x(), planimetric_offset_m.y()}},
@@ -360,6 +390,11 @@ nlohmann::json SurfaceEvaluation::ToJson() const {
           {"filled_fraction", filled_fraction},
           {"largest_hole_m", largest_hole_m},
           {"holes_over_5cm", holes_over_5cm},
+          {"holes", [&] {
+             nlohmann::json h = nlohmann::json::array();
+             for (const Eigen::Vector3d& x : holes) h.push_back({{"x", x.x()}, {"y", x.y()}, {"width_m", x.z()}});
+             return h;
+           }()},
           {"mesh", mesh.ToJson()},
           {"mesh_vertices", mesh_vertices}};
 }

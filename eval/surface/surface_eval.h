@@ -31,6 +31,8 @@ struct SurfaceEvaluation {
   HeightErrors relative;
   Eigen::Vector3d placement_offset_m = Eigen::Vector3d::Zero();  ///< cameras' mean error (ours − truth), CRS
   int placement_cameras = 0;
+  double mean_sigma_m = 0;         ///< mean stated σ (dsm_sigma.tif) over the carriageway
+  double within_2_sigma = 0;       ///< share of the carriageway's cells whose relative error is within 2σ
   HeightErrors all_cells;          ///< like `relative`, over every fused cell (verges and kerbs included)
   Eigen::Vector2d planimetric_offset_m = Eigen::Vector2d::Zero();  ///< best-aligning shift of the DSM (ours − truth)
   double planimetric_error_m = 0;           ///< |planimetric_offset_m|
@@ -39,6 +41,7 @@ struct SurfaceEvaluation {
   double filled_fraction = 0;               ///< of those, the share the DSM fills
   double largest_hole_m = 0;                ///< widest hole inside the imaged road (2 × its largest inscribed radius)
   int holes_over_5cm = 0;
+  std::vector<Eigen::Vector3d> holes;       ///< each hole over 5 cm: CRS x, y of its centre and its width
   HeightErrors mesh;                        ///< the mesh's surface at the cells (relative, like `relative`)
   int64_t mesh_vertices = 0;
 

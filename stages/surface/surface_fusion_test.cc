@@ -10,6 +10,7 @@
 #include <random>
 
 #include "stages/surface/frame_cells.h"
+#include "stages/surface/hole_fill.h"
 #include "stages/surface/surface_frames.h"
 #include "stages/surface/tile_accumulator.h"
 #include "stages/surface/tile_store.h"
@@ -83,6 +84,33 @@ TEST(TileStore, FinishesSpillsAndReloadsWithoutLoss) {
     EXPECT_EQ(emitted.size(), 2u);
   }
   EXPECT_FALSE(fs::exists(spill)) << "spill folder removed";
+}
+
+// A tilted plane with three holes: a small one inside (filled from its rim, close to the plane, count
+// still 0), a wide one inside and one at the tile's edge (both left: the edge may continue next door).
+TEST(FillSmallHoles, FillsOnlySmallInteriorHoles) {
+  const int n = 40;
+  FusedTile t;
+  t.height_m.create(n, n, CV_32F);
+  for (int r = 0; r < n; ++r)
+    for (int c = 0; c < n; ++c) t.height_m.at<float>(r, c) = 100.0f + 0.001f * c + 0.0005f * r;
+  t.sigma_m = cv::Mat(n, n, CV_32F, cv::Scalar(0.002));
+  t.count = cv::Mat(n, n, CV_16U, cv::Scalar(5));
+  t.colour = cv::Mat(n, n, CV_8UC3, cv::Scalar(90, 90, 90));
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const auto punch = [&](cv::Rect r) {
+    t.height_m(r).setTo(nan), t.sigma_m(r).setTo(nan), t.count(r).setTo(0), t.colour(r).setTo(cv::Scalar::all(0));
+  };
+  punch({10, 10, 3, 3});   // 3 cells wide
+  punch({20, 20, 12, 12});  // 12 cells wide
+  punch({0, 30, 3, 3});     // at the edge
+  EXPECT_EQ(FillSmallHoles(&t, 5.0), 9);
+  EXPECT_NEAR(t.height_m.at<float>(11, 11), 100.0f + 0.011f + 0.0055f, 0.0015);
+  EXPECT_EQ(t.count.at<uint16_t>(11, 11), 0) << "filled cells say no view saw them";
+  EXPECT_GT(t.sigma_m.at<float>(11, 11), 0.002f);
+  EXPECT_NEAR(t.colour.at<cv::Vec3b>(11, 11)[0], 90, 2);
+  EXPECT_TRUE(std::isnan(t.height_m.at<float>(25, 25)));
+  EXPECT_TRUE(std::isnan(t.height_m.at<float>(31, 1)));
 }
 
 // A nadir camera 5 m above flat ground at height 100 m: every pixel lands at 100 m, and its σ is

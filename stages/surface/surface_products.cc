@@ -46,7 +46,11 @@ void SurfaceRasters::WriteTile(int tile, const FusedTile& t) {
   const int h = std::min(grid_.tile, grid_.rows - tr * grid_.tile);
   const cv::Rect roi(0, 0, w, h);
   cv::Mat height = t.height_m(roi).clone(), sigma = t.sigma_m(roi).clone(), colour = t.colour(roi).clone();
-  const cv::Mat empty = t.count(roi) == 0;  // no view (NaN heights: compare() does not see NaN)
+  // No height: NaN (cv::compare is not NaN-aware on every code path). Filled holes have a height
+  // and a count of 0.
+  cv::Mat empty(h, w, CV_8U);
+  for (int r = 0; r < h; ++r)
+    for (int c = 0; c < w; ++c) empty.at<uint8_t>(r, c) = std::isfinite(height.at<float>(r, c)) ? 0 : 255;
   height.setTo(kDsmNodata, empty);
   sigma.setTo(kDsmNodata, empty);
   colour.setTo(cv::Scalar::all(0), empty);
@@ -55,6 +59,7 @@ void SurfaceRasters::WriteTile(int tile, const FusedTile& t) {
   count_->WriteTile(tc, tr, t.count(roi));
   ortho_->WriteTile(tc, tr, colour);
   const int filled = w * h - cv::countNonZero(empty);
+  totals_.cells_interpolated += filled - cv::countNonZero(t.count(roi));
   ++totals_.tiles;
   totals_.cells_filled += filled;
   if (filled > 0) {

@@ -28,6 +28,7 @@ struct RasterCrs {
 
 struct SurfaceTotals {
   int64_t tiles = 0, cells_filled = 0;
+  int64_t cells_interpolated = 0;  ///< of the filled cells, small holes filled from their rim
   double sigma_sum_m = 0;  ///< over filled cells
   std::vector<int> tiles_written;
 };

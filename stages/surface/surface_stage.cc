@@ -12,6 +12,7 @@
 #include "formats/geo/georeference_file.h"
 #include "formats/stereo/calibration_yaml.h"
 #include "formats/trajectory/tum_trajectory.h"
+#include "stages/surface/hole_fill.h"
 #include "stages/surface/surface_frames.h"
 #include "stages/surface/surface_products.h"
 #include "stages/surface/tile_store.h"
@@ -178,6 +179,11 @@ const OptionTable<SurfaceOptions>& SurfaceOptions::Table() {
                "in place) instead of its smooth one (half the disparity stage's default smooth window)",
                "px")
           .Min(0)
+          .Add("fill_holes_m", &O::fill_holes_m,
+               "empty regions inside a tile at most this wide are filled from their rim (view count 0, σ raised by "
+               "the rim's height spread); 0 leaves every hole",
+               "m")
+          .Min(0)
           .Add("max_range_m", &O::max_range_m, "pixels deeper than this are not fused (0: no limit)", "m")
           .Min(0)
           .Add("disparity_sigma_px", &O::disparity_sigma_px,
@@ -240,8 +246,11 @@ void SurfaceStage::Run(StageContext& ctx, const SurfaceOptions& o) const {
   fs::create_directories(dir);
   SurfaceRasters rasters(dir, g, raster_crs);
   TileStore store(g.tile * g.tile, o.keep_views, plan.last_use, ctx.out_dir() / "spill");
+  const double fill_cells = o.fill_holes_m / g.cell;
   const auto emit = [&](int tile, const TileAccumulator& acc) {
-    rasters.WriteTile(tile, acc.Fuse(g.tile, o.min_views));
+    FusedTile t = acc.Fuse(g.tile, o.min_views);
+    if (fill_cells > 0) FillSmallHoles(&t, fill_cells);
+    rasters.WriteTile(tile, t);
   };
   lo.colour = true;
   int64_t observations = 0;
@@ -306,6 +315,7 @@ void SurfaceStage::Run(StageContext& ctx, const SurfaceOptions& o) const {
        {"frames_without_road_mask", without_mask},
        {"observations", observations},
        {"cells_filled", tot.cells_filled},
+       {"cells_interpolated", tot.cells_interpolated},
        {"area_m2", static_cast<double>(tot.cells_filled) * g.cell * g.cell},
        {"mean_sigma_m", mean_sigma},
        {"tiles", tot.tiles},

@@ -12,9 +12,10 @@ namespace rs {
 struct SurfaceOptions {
   double cell_m = 0.01;              ///< finest grid cell; coarser when the frames' pixels are larger
   int tile_cells = 256;              ///< tile side, cells (also the GeoTIFF tile)
-  int keep_views = 6;                ///< best observations kept per cell for the robust fusion
+  int keep_views = 12;               ///< best observations kept per cell for the robust fusion
   int min_views = 2;                 ///< cells seen by fewer views are left empty
   int damage_margin_px = 10;         ///< sharp disparity within this distance of detected damage
+  double fill_holes_m = 0.15;        ///< empty regions up to this wide are filled from their rim
   double max_range_m = 0;            ///< pixels deeper than this are not fused (0: no limit)
   double disparity_sigma_px = 0;     ///< fixed disparity σ (0: each frame's road-fit residual)
   double min_disparity_sigma_px = 0.1;  ///< floor of the per-frame disparity σ
