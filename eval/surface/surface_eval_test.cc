@@ -63,7 +63,7 @@ TEST(PairDensity, Fan2021PairsFillTheVisibleRoad) {
   const auto rows = EvaluatePairDensity(dir, {0.01});
   ASSERT_GE(rows.size(), 5u);
   for (const auto& r : rows) {
-    EXPECT_GT(r.visible_cells, 10000) << r.left;
+    EXPECT_GT(r.visible_cells, 9000) << r.left;  // about 1 m x 0.9 m of road at 1 cm
     EXPECT_GE(r.filled_fraction, 0.99) << r.left;
   }
 }
