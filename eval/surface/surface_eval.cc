@@ -339,9 +339,14 @@ SurfaceEvaluation EvaluateSurface(const fs::path& survey_dir, const fs::path& ou
     e.mean_sigma_m = n ? sum / n : 0;
   }
   if (!error_image.empty()) WriteErrorImage(error_image, ours.z, truth_rel.z);
-  e.planimetric_offset_m = PlanimetricOffset(ours.z, truth_abs, ours.cell);
+  // Searched about the cameras' mean horizontal placement error, which may be metres with a
+  // standard GNSS: what is left is the surface's own offset.
+  const Eigen::Vector3d placed_xy(e.placement_offset_m.x(), e.placement_offset_m.y(), 0);
+  const Eigen::Vector2d own =
+      PlanimetricOffset(ours.z, RasterizeMesh(truth.vertices, truth.faces, ours, placed_xy), ours.cell);
+  e.planimetric_offset_m = e.placement_offset_m.head<2>() + own;
   e.planimetric_error_m = e.planimetric_offset_m.norm();
-  e.planimetric_relative_m = (e.planimetric_offset_m - e.placement_offset_m.head<2>()).norm();
+  e.planimetric_relative_m = own.norm();
   MeasureHoles(ours.z, road, ours.cell, {ours.x_min, ours.y_max}, &e);
   if (fs::exists(dir / "mesh.ply")) e.mesh = CompareMesh(dir, truth_rel, road, &e.mesh_vertices);
   return e;
