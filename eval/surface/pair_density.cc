@@ -97,15 +97,16 @@ std::vector<PairDensityRow> EvaluatePairDensity(const fs::path& dir, const std::
         const double t = -b.z() / (A.row(2).dot(ray));
         if (t > 0) visible.emplace_back((A * ray * t + b).head<2>());
       }
-    double x0 = INFINITY, y1 = -INFINITY;
-    for (const auto& p : visible) x0 = std::min(x0, p.x()), y1 = std::max(y1, p.y());
+    double x0 = INFINITY, y1 = -INFINITY, x1 = -INFINITY, y0 = INFINITY;
+    for (const auto& p : visible) {
+      x0 = std::min(x0, p.x()), x1 = std::max(x1, p.x());
+      y0 = std::min(y0, p.y()), y1 = std::max(y1, p.y());
+    }
     for (double cell : cells_m) {
       SurfaceGrid grid;
       grid.cell = cell;
       grid.x_min = std::floor(x0 / cell) * cell - 10 * cell;
       grid.y_max = std::ceil(y1 / cell) * cell + 10 * cell;
-      double x1 = -INFINITY, y0 = INFINITY;
-      for (const auto& p : visible) x1 = std::max(x1, p.x()), y0 = std::min(y0, p.y());
       grid.cols = static_cast<int>(std::ceil((x1 - grid.x_min) / cell)) + 10;
       grid.rows = static_cast<int>(std::ceil((grid.y_max - y0) / cell)) + 10;
       std::unordered_set<int64_t> vis, filled;

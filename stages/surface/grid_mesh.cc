@@ -93,7 +93,6 @@ struct GridMeshWriter::Impl {
     }
   }
 
-  void AppendPiece(const HeightBlock& piece);
   /// Writes a meshed piece after the ones before it.
   void AppendMesh(const BlockMesh& mesh);
 
@@ -104,13 +103,6 @@ struct GridMeshWriter::Impl {
   GridMeshStats stats;
   bool outputs_started = false, finished = false;
 };
-
-void GridMeshWriter::Impl::AppendPiece(const HeightBlock& piece) {
-  const auto t0 = std::chrono::steady_clock::now();
-  const BlockMesh mesh = MeshHeightBlock(piece, offset, options);
-  stats.mesh_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  AppendMesh(mesh);
-}
 
 void GridMeshWriter::Impl::AppendMesh(const BlockMesh& mesh) {
   const int64_t base = stats.vertices;  // this piece's first vertex in the whole mesh
@@ -160,18 +152,7 @@ GridMeshWriter::GridMeshWriter(std::filesystem::path ply_path, std::filesystem::
 
 GridMeshWriter::~GridMeshWriter() = default;
 
-void GridMeshWriter::AddBlock(const HeightBlock& block) {
-  if (impl_->finished) throw std::logic_error("GridMeshWriter::AddBlock after Finish");
-  CheckBlock(block);
-  const int rows = block.height_m.rows, cols = block.height_m.cols;
-  // Pieces overlap by one row and column, as blocks do, so their locked edges meet.
-  for (int r0 = 0; r0 + 1 < rows || r0 == 0; r0 += kMaxPieceCells - 1) {
-    for (int c0 = 0; c0 + 1 < cols || c0 == 0; c0 += kMaxPieceCells - 1) {
-      const int piece_rows = std::min(kMaxPieceCells, rows - r0), piece_cols = std::min(kMaxPieceCells, cols - c0);
-      if (piece_rows >= 2 && piece_cols >= 2) impl_->AppendPiece(Piece(block, r0, c0, piece_rows, piece_cols));
-    }
-  }
-}
+void GridMeshWriter::AddBlock(const HeightBlock& block) { AddBlocks({block}); }
 
 void GridMeshWriter::AddBlocks(const std::vector<HeightBlock>& blocks) {
   if (impl_->finished) throw std::logic_error("GridMeshWriter::AddBlocks after Finish");
@@ -179,6 +160,7 @@ void GridMeshWriter::AddBlocks(const std::vector<HeightBlock>& blocks) {
   for (const HeightBlock& block : blocks) {
     CheckBlock(block);
     const int rows = block.height_m.rows, cols = block.height_m.cols;
+    // Pieces overlap by one row and column, as blocks do, so their locked edges meet.
     for (int r0 = 0; r0 + 1 < rows || r0 == 0; r0 += kMaxPieceCells - 1)
       for (int c0 = 0; c0 + 1 < cols || c0 == 0; c0 += kMaxPieceCells - 1) {
         const int piece_rows = std::min(kMaxPieceCells, rows - r0), piece_cols = std::min(kMaxPieceCells, cols - c0);
