@@ -17,6 +17,7 @@ packages=(
   colmap
   libtiff-dev libgeotiff-dev
   gdal-bin
+  libjs-leaflet chromium
 )
 
 missing=()
@@ -25,6 +26,10 @@ for p in "${packages[@]}"; do
     missing+=("$p")
   fi
 done
+# The report's browser test runs on Node.js with npm; a machine that already has them (from Debian or
+# from NodeSource) keeps its own: Debian's npm package conflicts with NodeSource's nodejs.
+command -v node >/dev/null 2>&1 || missing+=(nodejs)
+command -v npm >/dev/null 2>&1 || missing+=(npm)
 [ ${#missing[@]} -eq 0 ] && exit 0
 
 echo "setup: installing ${#missing[@]} missing package(s): ${missing[*]}"

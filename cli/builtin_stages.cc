@@ -2,12 +2,13 @@
 #include "cli/command.h"
 #include "stages/damage/damage_stage.h"
 #include "stages/damage_map/damage_map_stage.h"
-#include "stages/surface/surface_stage.h"
 #include "stages/disparity/disparity_stage.h"
 #include "stages/georeference/georeference_stage.h"
 #include "stages/ingest/ingest_stage.h"
 #include "stages/refine/refine_stage.h"
+#include "stages/report/report_stage.h"
 #include "stages/slam/slam_stage.h"
+#include "stages/surface/surface_stage.h"
 #include "survey/stage.h"
 
 namespace rs {
@@ -21,6 +22,7 @@ void RegisterBuiltinStages(StageRegistry& registry) {
   registry.Add(std::make_unique<GeoreferenceStage>());
   registry.Add(std::make_unique<DamageMapStage>());
   registry.Add(std::make_unique<SurfaceStage>());
+  registry.Add(std::make_unique<ReportStage>());
 }
 
 }  // namespace rs

@@ -66,7 +66,10 @@ void WriteSurveyJson(const fs::path& path, const std::string& name, const Simula
                               {"calibration", {{"path", "calibration.yaml"}}},
                               {"flight_log", {{"path", "flight_log.csv"}}}}},
                             {"output", "out"},
-                            {"stages", {{"georeference", georeference}}}};
+                            {"stages",
+                             {{"georeference", georeference},
+                              // The report charts the cameras' error against the simulator's truth.
+                              {"report", {{"reference_trajectory", "truth/reference_trajectory.csv"}}}}}};
   std::ofstream f(path);
   f << j.dump(2) << "\n";
   if (!f) throw std::runtime_error("cannot write " + path.string());
@@ -121,6 +124,7 @@ SimulationSummary Simulate(const SimulationOptions& o, const fs::path& out, cons
     WriteDataflashTrack(out / "flight_log.bin", track, bin);
   }
   sim::WriteTum(out / "truth/trajectory.tum", cam_t_ns, poses);
+  sim::WriteReferenceTrajectory(out / "truth/reference_trajectory.csv", cam_t_ns, poses, enu);
   sim::WriteDamagesGeoJson(out / "truth/damages.geojson", scene, enu);
   const double corridor = road.half_width() + road.kerb_width() + o.verge_width_m;
   sim::WriteRoadPly(out / "truth/road_surface.ply", scene, s0, s1, corridor, o.mesh_resolution_m);

@@ -49,6 +49,20 @@ void WriteTum(const std::filesystem::path& path, const std::vector<int64_t>& t_n
   CloseChecked(f, path);
 }
 
+void WriteReferenceTrajectory(const std::filesystem::path& path, const std::vector<int64_t>& t_ns,
+                              const std::vector<Eigen::Isometry3d>& T_world_cam,
+                              const GeographicLib::LocalCartesian& enu) {
+  std::ofstream f = OpenOut(path);
+  f << "t_ns,lat_deg,lon_deg,h_ellipsoid_m\n";
+  for (size_t k = 0; k < t_ns.size(); ++k) {
+    const Eigen::Vector3d& p = T_world_cam[k].translation();
+    double lat = 0, lon = 0, h = 0;
+    enu.Reverse(p.x(), p.y(), p.z(), lat, lon, h);
+    f << fmt::format("{},{:.10f},{:.10f},{:.4f}\n", t_ns[k], lat, lon, h);
+  }
+  CloseChecked(f, path);
+}
+
 cv::Mat DisparityFromDepth(const cv::Mat& depth_m, double fb) {
   cv::Mat out(depth_m.size(), CV_16UC1);
   for (int v = 0; v < depth_m.rows; ++v) {

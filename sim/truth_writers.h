@@ -19,6 +19,12 @@ namespace rs::sim {
 void WriteTum(const std::filesystem::path& path, const std::vector<int64_t>& t_ns,
               const std::vector<Eigen::Isometry3d>& T_world_cam);
 
+/// The left camera centres as a reference trajectory for the report (report.reference_trajectory):
+/// `t_ns,lat_deg,lon_deg,h_ellipsoid_m` per frame, WGS84 through the local ENU frame `enu`.
+void WriteReferenceTrajectory(const std::filesystem::path& path, const std::vector<int64_t>& t_ns,
+                              const std::vector<Eigen::Isometry3d>& T_world_cam,
+                              const GeographicLib::LocalCartesian& enu);
+
 /// KITTI-style disparity from depth: value = round(d * 256), d = fx_baseline_px_m / depth;
 /// 0 where depth is 0 or d does not fit (d >= 256).
 cv::Mat DisparityFromDepth(const cv::Mat& depth_m, double fx_baseline_px_m);

@@ -19,7 +19,7 @@ namespace rs {
 namespace fs = std::filesystem;
 namespace {
 
-constexpr const char* kMarker = "stage.json";  // written last: its presence marks a complete run
+constexpr const char* kMarker = kStageMarker;
 
 std::string UtcNow() {
   const auto now = std::chrono::system_clock::now();
@@ -193,7 +193,7 @@ std::map<std::string, std::string> ComputeKeys(const StageRegistry& registry, co
     KeyHasher h;
     h.Add("stage").Add(info.name).Add(static_cast<int64_t>(info.version)).Add(options.at(info.name).dump());
     // Only when present: the keys of stages without one stay as they were.
-    if (const std::string extra = stage->ExtraKey(options.at(info.name)); !extra.empty()) h.Add("extra").Add(extra);
+    if (const std::string extra = stage->ExtraKey(survey, options.at(info.name)); !extra.empty()) h.Add("extra").Add(extra);
     AddFrameSelection(h, frames);
     std::map<std::string, std::string> inputs;
     for (const auto& artifact : info.inputs)

@@ -115,7 +115,7 @@ std::string g_side_extra;
 class SideStage : public TypedStage<SideStage, SideOptions> {
  public:
   static StageInfo Info() { return {"side", 1, "independent branch", {"frames"}, {"side"}, {}, false}; }
-  std::string ExtraKeyOf(const SideOptions&) const { return g_side_extra; }
+  std::string ExtraKeyOf(const SurveyFile&, const SideOptions&) const { return g_side_extra; }
   void Run(StageContext& ctx, const SideOptions&) const {
     ++g_side_runs;
     WriteFileAtomic(ctx.out_dir() / "n.txt", "ok");

@@ -27,6 +27,10 @@ namespace rs {
 /// The artifact name of the survey's own inputs (frames folder, calibration, flight log).
 inline constexpr const char* kSurveyInputs = "survey.inputs";
 
+/// The file a finished stage run leaves in its output folder, written last: its presence marks the run
+/// complete; it holds the run's summary (StageSummary::ToJson), wall time and finish time.
+inline constexpr const char* kStageMarker = "stage.json";
+
 /// A file a stage publishes under a stable name at the top of the output folder.
 struct PublishedFile {
   std::string from;  ///< path relative to the stage's output folder
@@ -150,13 +154,13 @@ class Stage {
   virtual void Run(StageContext& ctx, const nlohmann::json& merged) const = 0;
   /// What the outputs depend on beyond the inputs, options and version (a model file's digest),
   /// as text for the cache key; empty = nothing.
-  virtual std::string ExtraKey(const nlohmann::json& merged) const { return {}; }
+  virtual std::string ExtraKey(const SurveyFile& survey, const nlohmann::json& merged) const { return {}; }
 };
 
 /// Base for concrete stages: Derived provides `static StageInfo Info()` and
 /// `void Run(StageContext&, const Options&) const`, and may provide
 /// `void ValidateInputs(const SurveyFile&, const Options&, ValidationDepth, ProblemList&) const`
-/// and `std::string ExtraKeyOf(const Options&) const`.
+/// and `std::string ExtraKeyOf(const SurveyFile&, const Options&) const`.
 /// Options provides `static const OptionTable<Options>& Table()` and `void Check() const`.
 template <class Derived, class Options>
 class TypedStage : public Stage {
@@ -174,13 +178,13 @@ class TypedStage : public Stage {
   void Run(StageContext& ctx, const nlohmann::json& merged) const override {
     static_cast<const Derived*>(this)->Run(ctx, Options::Table().FromJson(merged));
   }
-  std::string ExtraKey(const nlohmann::json& merged) const override {
-    return static_cast<const Derived*>(this)->ExtraKeyOf(Options::Table().FromJson(merged));
+  std::string ExtraKey(const SurveyFile& survey, const nlohmann::json& merged) const override {
+    return static_cast<const Derived*>(this)->ExtraKeyOf(survey, Options::Table().FromJson(merged));
   }
   /// Default: nothing to check before running.
   void ValidateInputs(const SurveyFile&, const Options&, ValidationDepth, ProblemList&) const {}
   /// Default: the outputs depend on the inputs, options and version alone.
-  std::string ExtraKeyOf(const Options&) const { return {}; }
+  std::string ExtraKeyOf(const SurveyFile&, const Options&) const { return {}; }
 };
 
 /// The stages a program knows, in registration order. No global state: the

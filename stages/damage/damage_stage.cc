@@ -68,7 +68,7 @@ StageInfo DamageStage::Info() {
   return info;
 }
 
-std::string DamageStage::ExtraKeyOf(const DamageStageOptions& o) const {
+std::string DamageStage::ExtraKeyOf(const SurveyFile&, const DamageStageOptions& o) const {
   const CrackOptions& c = o.damage.crack;
   if (!c.enabled || ResolveCrackDetector(c, true, cv::Size()) != CrackOptions::Detector::kLearned) return {};
   const fs::path model = ResolveCrackModelPath(c.model);

@@ -24,7 +24,7 @@ class DamageStage : public TypedStage<DamageStage, DamageStageOptions> {
   static StageInfo Info();
   void Run(StageContext& ctx, const DamageStageOptions& options) const;
   /// The learned crack model's SHA-256 when the stage runs it (a new model redoes the stage).
-  std::string ExtraKeyOf(const DamageStageOptions& options) const;
+  std::string ExtraKeyOf(const SurveyFile& survey, const DamageStageOptions& options) const;
 };
 
 }  // namespace rs

@@ -140,4 +140,12 @@ nlohmann::json GeoreferenceReport(const GeoreferenceResult& r, const GeoFrames& 
       {"angles", "cameras.csv roll/pitch/yaw: body FRD -> NED at the origin, aerospace ZYX, degrees (yaw from true north)"}};
 }
 
+void WriteGnssResidualCsv(const std::filesystem::path& path, const std::vector<GnssResidual>& residuals) {
+  std::string csv = "frame,t_ns,east_m,north_m,up_m,inlier\n";
+  for (const GnssResidual& r : residuals)
+    csv += fmt::format("{},{},{:.4f},{:.4f},{:.4f},{}\n", r.frame, r.t_ns, r.r_enu.x(), r.r_enu.y(), r.r_enu.z(),
+                       r.inlier ? 1 : 0);
+  WriteFileChecked(path, csv);
+}
+
 }  // namespace rs

@@ -12,6 +12,10 @@
 
 namespace rs {
 
+/// georeference_residuals.csv: `frame,t_ns,east_m,north_m,up_m,inlier`, one row per GNSS fix fitted
+/// (GNSS fix minus fitted antenna position, local ENU).
+void WriteGnssResidualCsv(const std::filesystem::path& path, const std::vector<GnssResidual>& residuals);
+
 /// The frame the fit works in and the CRS the outputs are written in.
 struct GeoFrames {
   GeographicLib::LocalCartesian enu;  ///< local ENU of the fit (tangent at `origin`)

@@ -138,6 +138,7 @@ void PublishNotGeoreferenced(StageContext& ctx, const std::vector<FramePrior>& p
   std::ostringstream geo;
   geojson::WriteFeatureCollection(geo, geojson::FeatureCollection{});
   WriteFileChecked(ctx.out_dir() / "trajectory.geojson", geo.view());
+  WriteGnssResidualCsv(ctx.out_dir() / "georeference_residuals.csv", {});
   WriteGnssResidualPlot(ctx.out_dir() / "georeference_residuals.png", {}, Eigen::Vector3d::Zero(),
                         "not georeferenced: " + why);
   WriteJsonAtomic(ctx.out_dir() / "georeference.json",
@@ -220,7 +221,7 @@ const OptionTable<GeoreferenceStageOptions>& GeoreferenceStageOptions::Table() {
 StageInfo GeoreferenceStage::Info() {
   StageInfo info;
   info.name = kStage;
-  info.version = 1;
+  info.version = 2;  // 2: georeference_residuals.csv
   info.doc =
       "Every camera in the survey's CRS: robust SE(3)/Sim(3) fit of the trajectory to the flight log's GNSS "
       "antenna positions, roll about the track axis from the log's attitude or the road plane, residuals per "
@@ -230,7 +231,8 @@ StageInfo GeoreferenceStage::Info() {
   info.published = {{"georeference.json", "georeference.json"},
                     {"cameras.csv", "cameras.csv"},
                     {"trajectory.geojson", "trajectory.geojson"},
-                    {"georeference_residuals.png", "georeference_residuals.png"}};
+                    {"georeference_residuals.png", "georeference_residuals.png"},
+                    {"georeference_residuals.csv", "georeference_residuals.csv"}};
   info.per_frame = true;  // its result depends on the frame selection
   return info;
 }
@@ -336,6 +338,7 @@ void GeoreferenceStage::Run(StageContext& ctx, const GeoreferenceStageOptions& o
   for (const auto& c : result.cameras) ++by_status[c.status];
   int outliers = 0;
   for (const auto& r : result.residuals) outliers += !r.inlier;
+  WriteGnssResidualCsv(ctx.out_dir() / "georeference_residuals.csv", result.residuals);
   WriteGnssResidualPlot(ctx.out_dir() / "georeference_residuals.png", result.residuals, result.fit.sigma_axis_m,
                         fmt::format("georeference: {} fixes, {} outliers, roll from {}", result.residuals.size(),
                                     outliers, ToString(result.roll_method)));

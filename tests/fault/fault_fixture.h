@@ -24,14 +24,16 @@ namespace rs::test {
 namespace fault_fs = std::filesystem;
 
 /// Every file under `dir` (recursively) with its bytes, keyed by the path relative to `dir`.
-/// Skips `work/` (the cache, compared through what it publishes) and `manifest.json` (times).
+/// Skips `work/` (the cache, compared through what it publishes), `manifest.json` and the report's
+/// run record `report/data/run.{js,json}` (times of this run).
 inline std::map<std::string, std::string> PublishedFiles(const fault_fs::path& dir) {
   std::map<std::string, std::string> files;
   std::error_code ec;
   for (auto it = fault_fs::recursive_directory_iterator(dir, ec); it != fault_fs::recursive_directory_iterator();
        it.increment(ec)) {
     const fault_fs::path rel = fault_fs::relative(it->path(), dir);
-    if (rel == "work" || rel == "manifest.json") {
+    // The manifest and the report's run record hold this run's times, not results.
+    if (rel == "work" || rel == "manifest.json" || rel == "report/data/run.js" || rel == "report/data/run.json") {
       if (it->is_directory()) it.disable_recursion_pending();
       continue;
     }

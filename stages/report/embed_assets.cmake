@@ -1,0 +1,21 @@
+# Writes OUTPUT, a C++ source holding every file of ASSETS (a ;-list of paths under ASSET_DIR) as a
+# byte array, so the program carries the report's page without needing the source tree at run time.
+# Run with: cmake -DASSET_DIR=... -DASSETS=... -DOUTPUT=... -P embed_assets.cmake
+set(body "// Generated from stages/report/assets by embed_assets.cmake; do not edit.\n")
+string(APPEND body "#include \"stages/report/report_assets.h\"\n\nnamespace rs {\nnamespace {\n")
+set(table "")
+set(i 0)
+foreach(asset IN LISTS ASSETS)
+  file(READ "${ASSET_DIR}/${asset}" hex HEX)
+  string(LENGTH "${hex}" hex_len)
+  math(EXPR size "${hex_len} / 2")
+  string(REGEX REPLACE "([0-9a-f][0-9a-f])" "0x\\1," bytes "${hex}")
+  string(REGEX REPLACE "((0x[0-9a-f][0-9a-f],){24})" "\\1\n" bytes "${bytes}")
+  string(APPEND body "const unsigned char kAsset${i}[] = {\n${bytes}0x00};\n")
+  string(APPEND table "    {\"${asset}\", kAsset${i}, ${size}},\n")
+  math(EXPR i "${i} + 1")
+endforeach()
+string(APPEND body "const ReportAsset kAssets[] = {\n${table}};\n}  // namespace\n\n")
+string(APPEND body "std::span<const ReportAsset> ReportAssets() { return kAssets; }\n\n}  // namespace rs\n")
+file(WRITE "${OUTPUT}.tmp" "${body}")
+file(RENAME "${OUTPUT}.tmp" "${OUTPUT}")
