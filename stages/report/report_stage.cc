@@ -47,8 +47,10 @@ std::string ReadBytes(const fs::path& path) {
 }
 
 void WriteAssets(const fs::path& report) {
-  for (const ReportAsset& a : ReportAssets())
+  for (const ReportAsset& a : ReportAssets()) {
+    fs::create_directories((report / a.name).parent_path());
     WriteFileChecked(report / a.name, std::string_view(reinterpret_cast<const char*>(a.bytes), a.size));
+  }
 }
 
 void CopyLeaflet(const fs::path& from, const fs::path& report) {
@@ -182,10 +184,12 @@ void ReportStage::ValidateInputs(const SurveyFile& survey, const ReportOptions& 
   if (!o.reference_trajectory.empty() && !fs::exists(survey.Resolve(o.reference_trajectory)))
     problems.Error(InputLocation::File(survey.Resolve(o.reference_trajectory).string()),
                    "report.reference_trajectory: no such file");
+  // A warning, not an error: every other stage can still run; the report stage fails naming the file.
   for (const std::string& f : LeafletFiles())
     if (!fs::exists(fs::path(o.leaflet_dir) / f)) {
-      problems.Error(InputLocation::File((fs::path(o.leaflet_dir) / f).string()),
-                     "Leaflet is missing: install Debian's libjs-leaflet (./setup.sh) or set report.leaflet_dir");
+      problems.Warning(InputLocation::File((fs::path(o.leaflet_dir) / f).string()),
+                       "Leaflet is missing: the report stage will fail; install Debian's libjs-leaflet (./setup.sh) "
+                       "or set report.leaflet_dir");
       return;
     }
 }
@@ -263,7 +267,11 @@ void ReportStage::Run(StageContext& ctx, const ReportOptions& o) const {
   ctx.Count("damages", static_cast<double>(data["damages"].size()));
   ctx.Count("ortho_pieces", ortho ? static_cast<double>(ortho->pieces.size()) : 0.0);
   if (ortho) ctx.Count("ortho_cell_m", ortho->cell_x);
-  ctx.Count("report_mb", static_cast<double>(FolderBytes(report)) / 1e6);
+  const double mb = static_cast<double>(FolderBytes(report)) / 1e6;
+  ctx.Count("report_mb", mb);
+  ctx.summary().counts["headline"] =
+      fmt::format("report/index.html (open in a browser): {} damages, {}, {:.1f} MB", data["damages"].size(),
+                  ortho ? fmt::format("orthophoto at {:.0f} mm", ortho->cell_x * 1000) : std::string("no orthophoto"), mb);
   ctx.Time("report", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
 }
 
