@@ -250,7 +250,7 @@ void ReportStage::Run(StageContext& ctx, const ReportOptions& o) const {
       for (const OrthoPiece& p : ortho->pieces)
         pieces.push_back({{"file", p.file}, {"bounds", {frame.Point(p.x_min, p.y_min), frame.Point(p.x_max, p.y_max)}}});
     data["map"] = {{"origin_crs", {frame.origin.x(), frame.origin.y()}},
-                   {"extent", MapExtent(track, ortho ? &*ortho : nullptr, 5.0, frame)},
+                   {"extent", MapExtent(track, ortho ? &*ortho : nullptr, 1.0, frame)},
                    {"ortho", ortho ? nlohmann::json{{"cell_m", ortho->cell_x}, {"pieces", pieces}} : nlohmann::json()},
                    {"trajectory", TrackPoints(track, o.trajectory_max_points, frame)}};
     data["damages"] = std::move(damages.damages);
