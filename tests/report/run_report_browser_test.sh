@@ -8,7 +8,7 @@
 #                                the binary is then not used
 #   CHROMIUM=<path>              the Chromium to use (default: chromium on PATH)
 #
-# Exit 0 passed, 1 failed, 2 bad usage, 77 skipped (no Chromium, Node.js or npm).
+# Exit 0 passed, 1 failed, 2 bad usage, 77 skipped (no Chromium).
 # playwright-core is installed with `npm ci` into <work_dir>/node_modules from the lock file here,
 # and reused while that lock file is unchanged (npm needs the registry or its cache the first time).
 set -euo pipefail
@@ -23,7 +23,7 @@ bin=$1
 work=$2
 artifacts=$3
 
-# --- prerequisites: skip, not fail, where the machine lacks them
+# --- prerequisites: a machine without a browser skips the test; Node.js and npm come with ./setup.sh
 chromium=${CHROMIUM:-$(command -v chromium || true)}
 if [ -z "$chromium" ] || [ ! -x "$chromium" ]; then
   echo "SKIP: chromium not installed (apt-get install chromium)"
@@ -31,14 +31,14 @@ if [ -z "$chromium" ] || [ ! -x "$chromium" ]; then
 fi
 for tool in node npm; do
   if ! command -v "$tool" >/dev/null 2>&1; then
-    echo "SKIP: $tool not installed (apt-get install nodejs npm)"
-    exit 77
+    echo "FAIL: $tool not installed: run ./setup.sh (Debian packages nodejs, npm)" >&2
+    exit 1
   fi
 done
 node_major=$(node -p 'process.versions.node.split(".")[0]')
-if [ "$node_major" -lt 20 ]; then
-  echo "SKIP: Node.js 20 or newer needed by playwright-core (found $(node --version))"
-  exit 77
+if [ "$node_major" -lt 18 ]; then
+  echo "FAIL: playwright-core needs Node.js 18 or newer (found $(node --version))" >&2
+  exit 1
 fi
 
 mkdir -p "$work" "$artifacts"
