@@ -66,10 +66,14 @@
     return parts;
   }
 
+  // "detected in N of the M views that had it in sight": N counts frames, not observations (a crack
+  // may be detected in several pieces in one frame).
   function observationsCell(d) {
     const p = props(d);
     if (!isNum(p.observations)) return DASH;
-    return isNum(p.views_in_view) ? `${p.observations} of ${p.views_in_view}` : String(p.observations);
+    const frames = isText(p.observation_frames) ? new Set(p.observation_frames.split(';')).size : null;
+    if (frames === null || !isNum(p.views_in_view)) return String(p.observations);
+    return `${frames} of ${p.views_in_view} views`;
   }
 
   function renderTableHead() {
