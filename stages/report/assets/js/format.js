@@ -144,9 +144,12 @@
 
   function seconds(s) {
     if (!isNum(s)) return DASH;
-    if (s < 60) return `${s.toFixed(s < 10 ? 2 : 1)} s`;
-    if (s < 3600) return `${Math.floor(s / 60)} min ${String(Math.round(s % 60)).padStart(2, '0')} s`;
-    return `${Math.floor(s / 3600)} h ${String(Math.floor((s % 3600) / 60)).padStart(2, '0')} min`;
+    if (s < 59.95) return `${s.toFixed(s < 10 ? 2 : 1)} s`;
+    // Round once, then split: 179.8 s is "3 min 00 s", not "2 min 60 s".
+    const whole = Math.round(s);
+    if (whole < 3600) return `${Math.floor(whole / 60)} min ${String(whole % 60).padStart(2, '0')} s`;
+    const minutes = Math.round(s / 60);
+    return `${Math.floor(minutes / 60)} h ${String(minutes % 60).padStart(2, '0')} min`;
   }
 
   /** ISO-8601 UTC as written by the pipeline, shown without the browser's locale or time zone. */
