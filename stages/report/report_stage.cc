@@ -123,6 +123,34 @@ nlohmann::json RunRecord(const ReportSources& src) {
           {"skipped_frames", skipped}};
 }
 
+// The map (track, orthophoto pieces, damages with their thumbnails) in the survey CRS about a round
+// origin, and the damage counts, into `data`.
+void AddMap(const ReportSources& src, const ReportTrack& track, const OrthoPieces* ortho, const fs::path& report,
+            const ReportOptions& o, nlohmann::json& data) {
+  const GeoreferenceFile geo = ReadGeoreferenceFile(src.at("georeference") / "georeference.json");
+  const auto crs = geo.MakeCrs();
+  const MapFrame frame = MapFrameAbout(track.positions.front());
+  const fs::path geojson = src.at("damage_map") / "damage.geojson";
+  ReportDamages damages;
+  if (fs::exists(geojson)) damages = DamagesOnMap(geojson, *crs, geo.origin.h_ellipsoid_m, frame);
+  for (auto& d : damages.damages)
+    d["thumbnail"] =
+        CopyThumbnail(src.at("damage_map") / "damage_thumbnails", report, d["id"].get<int>(), o.thumbnail_max_px);
+  nlohmann::json ortho_json;
+  if (ortho) {
+    nlohmann::json pieces = nlohmann::json::array();
+    for (const OrthoPiece& p : ortho->pieces)
+      pieces.push_back({{"file", p.file}, {"bounds", {frame.Point(p.x_min, p.y_min), frame.Point(p.x_max, p.y_max)}}});
+    ortho_json = {{"cell_m", ortho->cell_x}, {"pieces", pieces}};
+  }
+  data["map"] = {{"origin_crs", {frame.origin.x(), frame.origin.y()}},
+                 {"extent", MapExtent(track, ortho, 1.0, frame)},
+                 {"ortho", ortho_json},
+                 {"trajectory", TrackPoints(track, o.trajectory_max_points, frame)}};
+  data["damages"] = std::move(damages.damages);
+  if (!damages.counts.is_null()) data["counts"] = damages.counts;
+}
+
 int64_t FolderBytes(const fs::path& dir) {
   int64_t bytes = 0;
   for (const auto& e : fs::recursive_directory_iterator(dir))
@@ -235,29 +263,10 @@ void ReportStage::Run(StageContext& ctx, const ReportOptions& o) const {
                          {"residuals", ResidualsOf(src.at("georeference") / "georeference_residuals.csv", georeference)},
                          {"trajectory_error", nullptr},
                          {"files", ProductLinks(src)}};
-  const fs::path geojson = src.at("damage_map") / "damage.geojson";
-  if (georeference.value("georeferenced", false) && !track.positions.empty()) {
-    const GeoreferenceFile geo = ReadGeoreferenceFile(src.at("georeference") / "georeference.json");
-    const auto crs = geo.MakeCrs();
-    const MapFrame frame = MapFrameAbout(track.positions.front());
-    ReportDamages damages;
-    if (fs::exists(geojson)) damages = DamagesOnMap(geojson, *crs, geo.origin.h_ellipsoid_m, frame);
-    for (auto& d : damages.damages)
-      d["thumbnail"] = CopyThumbnail(src.at("damage_map") / "damage_thumbnails", report, d["id"].get<int>(),
-                                     o.thumbnail_max_px);
-    nlohmann::json pieces = nlohmann::json::array();
-    if (ortho)
-      for (const OrthoPiece& p : ortho->pieces)
-        pieces.push_back({{"file", p.file}, {"bounds", {frame.Point(p.x_min, p.y_min), frame.Point(p.x_max, p.y_max)}}});
-    data["map"] = {{"origin_crs", {frame.origin.x(), frame.origin.y()}},
-                   {"extent", MapExtent(track, ortho ? &*ortho : nullptr, 1.0, frame)},
-                   {"ortho", ortho ? nlohmann::json{{"cell_m", ortho->cell_x}, {"pieces", pieces}} : nlohmann::json()},
-                   {"trajectory", TrackPoints(track, o.trajectory_max_points, frame)}};
-    data["damages"] = std::move(damages.damages);
-    if (!damages.counts.is_null()) data["counts"] = damages.counts;
-  } else {
+  if (georeference.value("georeferenced", false) && !track.positions.empty())
+    AddMap(src, track, ortho ? &*ortho : nullptr, report, o, data);
+  else
     ctx.Warn("the cameras are not georeferenced: the report has no map");
-  }
   if (!o.reference_trajectory.empty())
     data["trajectory_error"] = TrajectoryError(src.at("georeference") / "cameras.csv",
                                                ctx.survey().Resolve(o.reference_trajectory), o.trajectory_max_points);
