@@ -142,6 +142,11 @@ TEST(Examples, EurocV101Micro) {
   const int frames = FramesWith(out, "disparity", "disparity.png");
   EXPECT_GE(frames, 90) << "the micro extract holds 95 pairs";
   ExpectPublished(out, frames);
+  // No GNSS indoors: the cameras are not on a map, and the report says so instead of drawing one.
+  const auto report = ReadJson(out / "report" / "data" / "report.json");
+  EXPECT_FALSE(report["survey"]["georeferenced"].get<bool>());
+  EXPECT_TRUE(report["map"].is_null());
+  EXPECT_EQ(report["survey"]["frames"]["placed"], 0);
 }
 
 // The Fan 2021 pairs follow no supported layout: stage.sh links them into the plain layout first.

@@ -131,7 +131,7 @@ void PublishNotGeoreferenced(StageContext& ctx, const std::vector<FramePrior>& p
   int64_t frames = 0;
   for (const auto& p : priors)
     if (ctx.frame_selection().Contains(p.id.value)) {
-      csv << p.id.value << ',' << p.t_ns << ",,,,,,,,,skipped\n";
+      csv << p.id.value << ',' << p.t_ns << ",,,,,,,,,,skipped\n";  // 12 fields, as the header
       ++frames;
     }
   WriteFileChecked(ctx.out_dir() / "cameras.csv", csv.view());

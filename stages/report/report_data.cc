@@ -16,6 +16,7 @@
 #include "formats/geojson/geojson.h"
 #include "formats/input_error.h"
 #include "survey/atomic_file.h"
+#include "survey/stage.h"
 
 namespace rs {
 namespace fs = std::filesystem;
@@ -65,6 +66,14 @@ nlohmann::json GnssSummary(const fs::path& ingest_dir, const nlohmann::json& geo
   if (res.contains("robust_sigma_m")) gnss["robust_sigma_m"] = res["robust_sigma_m"];
   gnss["outliers"] = res.value("outliers", nlohmann::json::array()).size();
   return gnss;
+}
+
+// Frames the damage stage analysed: those selected less those it skipped (its run record).
+int64_t FramesAnalysed(const ReportSources& src) {
+  const auto damage = src.find("damage");
+  if (damage == src.end() || !fs::exists(damage->second / kStageMarker)) return 0;
+  const auto frames = ReadJsonFile(damage->second / kStageMarker).value("frames", nlohmann::json::object());
+  return frames.value("total", int64_t{0}) - frames.value("skipped", int64_t{0});
 }
 
 // Every position of a GeoJSON geometry in the map frame, [y, x] order, rings and lines kept apart.
@@ -257,7 +266,6 @@ nlohmann::json TrajectoryError(const fs::path& cameras_csv, const fs::path& refe
 nlohmann::json SurveySummary(const std::string& name, const ReportSources& src, const ReportTrack& track,
                              const nlohmann::json& georeference) {
   const nlohmann::json ingest = ReadJsonFile(src.at("ingest") / "ingest.json");
-  const nlohmann::json damage_map = JsonIfPresent(src.at("damage_map") / "damage_map.json");
   const nlohmann::json surface = JsonIfPresent(src.at("surface") / "surface" / "surface.json");
   std::string date;
   nlohmann::json gnss = GnssSummary(src.at("ingest"), georeference, &date);
@@ -270,7 +278,7 @@ nlohmann::json SurveySummary(const std::string& name, const ReportSources& src, 
        {{"listed", ingest.value("frames_listed", 0)},
         {"usable", ingest.value("frames_usable", 0)},
         {"placed", track.positions.size()},
-        {"analysed", damage_map.value("examined_frames_with_pose", 0)}}},
+        {"analysed", FramesAnalysed(src)}}},
       {"length_m", RoundTo(track.length_m, 0.01)},
       {"duration_s", RoundTo(track.duration_s, 0.01)},
       {"crs",
@@ -280,9 +288,10 @@ nlohmann::json SurveySummary(const std::string& name, const ReportSources& src, 
         {"units", "m"}}},
       {"gnss", gnss},
       {"surface", nullptr}};
-  if (!surface.is_null())
+  // A surface stage without georeferenced cameras writes surface.json with "surface": false and why.
+  if (surface.is_object() && surface.value("surface", true) && surface.contains("grid"))
     s["surface"] = {{"area_m2", surface.value("area_m2", 0.0)},
-                    {"cell_m", surface["grid"].value("cell_m", 0.0)},
+                    {"cell_m", surface.at("grid").value("cell_m", 0.0)},
                     {"mean_sigma_m", surface.value("mean_sigma_m", nlohmann::json())}};
   return s;
 }

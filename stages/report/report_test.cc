@@ -196,5 +196,29 @@ TEST(Residuals, TimesFromTheFirstFixAndSigmaFromTheFit) {
   EXPECT_THROW(ResidualsOf(dir / "bad.csv", geo), InputError);
 }
 
+// What a survey without GNSS leaves (EuRoC indoors): no track, a damage map and surface that say why.
+TEST(Summary, WithoutGeoreferenceOrSurface) {
+  const fs::path dir = TempDir("summary");
+  ReportSources src;
+  for (const char* stage : {"ingest", "georeference", "damage_map", "surface"}) {
+    src[stage] = dir / stage;
+    fs::create_directories(src[stage]);
+  }
+  WriteText(src["ingest"] / "ingest.json", R"({"frames_listed": 95, "frames_usable": 95})");
+  WriteText(src["damage_map"] / "damage_map.json", R"({"mapped": false, "reason": "not georeferenced"})");
+  fs::create_directories(src["surface"] / "surface");
+  WriteText(src["surface"] / "surface" / "surface.json", R"({"surface": false, "reason": "not georeferenced"})");
+  const nlohmann::json geo = {{"georeferenced", false}, {"reason", "no GNSS"}};
+  const nlohmann::json s = SurveySummary("indoor", src, ReportTrack{}, geo);
+  EXPECT_FALSE(s["georeferenced"].get<bool>());
+  EXPECT_TRUE(s["surface"].is_null());
+  EXPECT_TRUE(s["date_utc"].is_null());
+  EXPECT_EQ(s["frames"]["listed"], 95);
+  EXPECT_EQ(s["frames"]["placed"], 0);
+  EXPECT_EQ(s["gnss"]["fixes"], 0);
+  EXPECT_FALSE(s["gnss"].contains("residual_rmse_m"));
+  EXPECT_EQ(s["crs"]["epsg"], "");
+}
+
 }  // namespace
 }  // namespace rs
