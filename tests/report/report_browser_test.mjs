@@ -316,6 +316,27 @@ async function checkTypeFilter(page, damages) {
   });
 }
 
+// "Repair first" lists every damage an intervention rule flags, most severe first; selecting one
+// selects its row.
+async function checkRepairFirst(page, damages) {
+  const rank = { high: 3, medium: 2, low: 1, none: 0 };
+  const flagged = [...damages.values()].filter((d) => d.intervention);
+  const items = page.locator('#priorities .priority-list button');
+  await check(`"repair first" lists the ${flagged.length} damage(s) flagged for intervention`, async () =>
+    (await items.count()) === flagged.length || `${await items.count()} listed`);
+  if (!flagged.length) return;
+  const ids = await items.evaluateAll((buttons) => buttons.map((b) => b.getAttribute('data-id')));
+  await check('"repair first" puts the most severe first', () => {
+    const ranks = ids.map((id) => rank[damages.get(id).severity] || 0);
+    return ranks.every((r, i) => i === 0 || r <= ranks[i - 1]) || `severities ${ids.map((id) => damages.get(id).severity)}`;
+  });
+  await items.first().click();
+  await check('selecting the first "repair first" damage selects its row', async () => {
+    const selected = await selectedRowIds(page);
+    return (selected.length === 1 && selected[0] === ids[0]) || `selected rows [${selected.join(', ')}]`;
+  });
+}
+
 // ---------------------------------------------------------------------------------------------
 
 async function main() {
@@ -391,6 +412,7 @@ async function browserChecks(browser, { url, reportDir, artifactDir, geo, thumbn
       id: String(d.id), type: d.type, thumbnail: d.thumbnail || null,
       geometry: d.geometry ? d.geometry.type : null,
       max_depth_m: d.properties ? d.properties.max_depth_m : null,
+      intervention: Boolean(d.properties && d.properties.intervention === true), severity: d.severity,
     }));
   });
   const damages = new Map(data.map((d) => [d.id, d]));
@@ -420,6 +442,7 @@ async function browserChecks(browser, { url, reportDir, artifactDir, geo, thumbn
     await checkMapClick(page, damages, selected);
     await checkSorting(page, damages);
     await checkTypeFilter(page, damages);
+    await checkRepairFirst(page, damages);
   }
   reportErrors(consoleErrors, pageErrors, failedRequests);
   await page.close();

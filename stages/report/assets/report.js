@@ -5,8 +5,8 @@
  * and Leaflet, no build step and no network, so the folder opens from file:// anywhere.
  * Data text is only ever inserted as text (never as HTML): rule texts and warnings come from logs.
  *
- * The drawing is split by job into js/format.js, js/damage.js, js/summary.js, js/map.js,
- * js/table.js and js/charts.js, plain deferred scripts that share window.RoadsurveyReport
+ * The drawing is split by job into js/format.js, js/damage.js, js/summary.js, js/priorities.js,
+ * js/map.js, js/table.js and js/charts.js, plain deferred scripts that share window.RoadsurveyReport
  * (ES module scripts are refused on file:// pages). This one, loaded last, starts the drawing.
  */
 (function () {
@@ -14,6 +14,7 @@
 
   const R = (window.RoadsurveyReport = window.RoadsurveyReport || {});
   const { state, byId, searchText, renderHeader, renderSummary, renderRunTimes, renderNotices, renderFiles,
+    renderPriorities,
     renderMap, refitForMedia, renderTableHead, renderTableBody, applySort, renderGradingRules, renderFilters,
     applyFilters, selectDamage, renderDetail, renderCountCharts, renderDepthHistogram, renderResiduals,
     renderTrajectoryError } = R;
@@ -91,6 +92,7 @@
     renderMap(report);
     applyFilters();
     renderDetail(null);
+    renderPriorities(state.damages);
     renderCountCharts(report);
     renderDepthHistogram();
     renderResiduals(report);
