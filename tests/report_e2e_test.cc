@@ -58,7 +58,9 @@ TEST_F(ReportE2E, DamagesAndCountsAreTheMapsFeatures) {
     EXPECT_EQ(d["properties"], p) << "every property as the damage map states it";
     EXPECT_EQ(d["geometry"]["type"], geojson["features"][i]["geometry"]["type"]);
     ++by_type[d["type"].get<std::string>()];
-    if (!d["thumbnail"].is_null()) EXPECT_TRUE(fs::exists(Out() / "report" / d["thumbnail"].get<std::string>()));
+    if (!d["thumbnail"].is_null()) {
+      EXPECT_TRUE(fs::exists(Out() / "report" / d["thumbnail"].get<std::string>()));
+    }
   }
   for (const auto& [type, n] : by_type) EXPECT_EQ(report["counts"]["by_type"][type], n) << type;
   // The published JSON and the script the page loads hold the same data.
