@@ -26,7 +26,7 @@
       cell: (d) => volume(props(d).volume_m3, props(d).sigma_volume_m3) },
     { key: 'severity', label: 'Severity', numeric: true, align: 'left',
       value: (d) => SEVERITY_RANK[severityOf(d)], cell: severityCell },
-    { key: 'observations', label: 'Observations', numeric: true, cell: observationsCell },
+    { key: 'observations', label: 'Views', numeric: true, cell: observationsCell },
   ];
 
   /** Figures align right; a column that sorts by a rank but shows words stays left. */
@@ -313,9 +313,9 @@
     add('intervention', 'Intervention', p.intervention === true
       ? el('span', { class: 'mark mark-alert', text: 'needed' }) : yesNo(p.intervention),
     isText(p.intervention_rule) ? p.intervention_rule : null);
-    add('observations', 'Observations', isNum(p.observations)
-      ? `${p.observations} view${p.observations === 1 ? '' : 's'}${isNum(p.views_in_view) ? ` of ${p.views_in_view} in view` : ''}`
-      : DASH);
+    add(['observations', 'views_in_view'], 'Views', observationsCell(d),
+      'frames that detected it, of those that had it in sight');
+    add('observations', 'Observations', text(p.observations), 'detections merged (a crack may come in pieces)');
     add('detection_rate', 'Detection rate', percent(p.detection_rate));
     add('observation_frames', 'Observation frames', isText(p.observation_frames)
       ? p.observation_frames.split(';').join(', ') : DASH);
