@@ -152,10 +152,10 @@ ReportDamages DamagesOnMap(const fs::path& geojson_path, const OutputCrs& crs, d
   return out;
 }
 
-ReportTrack TrackOf(const fs::path& cameras_csv) {
+ReportTrack TrackOf(const std::vector<CameraRow>& cameras) {
   ReportTrack t;
   int64_t t_first = 0, t_last = 0;
-  for (const CameraRow& r : ReadCamerasCsv(cameras_csv)) {
+  for (const CameraRow& r : cameras) {
     if (!r.crs) {
       ++t.skipped;
       continue;
@@ -209,7 +209,7 @@ nlohmann::json ResidualsOf(const fs::path& csv, const nlohmann::json& georeferen
           {"fixes", fixes}};
 }
 
-nlohmann::json TrajectoryError(const fs::path& cameras_csv, const fs::path& reference_csv, int max_points) {
+nlohmann::json TrajectoryError(const std::vector<CameraRow>& cameras, const fs::path& reference_csv, int max_points) {
   std::ifstream in(reference_csv);
   const std::string path = reference_csv.string();
   if (!in) throw InputError(InputLocation::File(path), "cannot open the reference trajectory");
@@ -232,7 +232,7 @@ nlohmann::json TrajectoryError(const fs::path& cameras_csv, const fs::path& refe
     double horizontal, vertical;
   };
   std::vector<Difference> diffs;
-  for (const CameraRow& r : ReadCamerasCsv(cameras_csv)) {
+  for (const CameraRow& r : cameras) {
     const auto ref = reference.find(r.t_ns);
     if (!r.crs || ref == reference.end()) continue;
     // Ours in the reference point's local tangent plane: metres east, north, up of it.

@@ -13,6 +13,7 @@
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 
+#include "formats/geo/cameras_csv.h"
 #include "stages/report/ortho_pieces.h"
 
 namespace rs {
@@ -40,14 +41,14 @@ struct ReportDamages {
 ReportDamages DamagesOnMap(const std::filesystem::path& geojson, const OutputCrs& crs, double height_m,
                            const MapFrame& frame);
 
-/// The placed cameras' ground track (cameras.csv), its horizontal length and duration; `skipped`
+/// The placed cameras' ground track (cameras.csv's rows), its horizontal length and duration; `skipped`
 /// counts cameras without a position.
 struct ReportTrack {
   std::vector<Eigen::Vector2d> positions;  ///< easting, northing in flight order
   double length_m = 0, duration_s = 0;
   int skipped = 0;
 };
-ReportTrack TrackOf(const std::filesystem::path& cameras_csv);
+ReportTrack TrackOf(const std::vector<CameraRow>& cameras);
 
 /// At most `max_points` of the track in the map frame (evenly strided, first and last kept).
 nlohmann::json TrackPoints(const ReportTrack& track, int max_points, const MapFrame& frame);
@@ -57,10 +58,10 @@ nlohmann::json ResidualsOf(const std::filesystem::path& csv, const nlohmann::jso
 
 /// A reference trajectory: `t_ns,lat_deg,lon_deg,h_ellipsoid_m`, the left camera's WGS84 position at
 /// each frame time, from a source independent of the survey (a post-processed GNSS solution, or the
-/// simulator's truth). Returns every camera of cameras.csv with a reference at its t_ns: the
+/// simulator's truth). Returns every camera (cameras.csv's rows) with a reference at its t_ns: the
 /// horizontal and vertical difference (ours minus reference, metres), at most `max_points` of them,
 /// with the RMSE and maximum over all. Throws InputError naming the file and line on a malformed row.
-nlohmann::json TrajectoryError(const std::filesystem::path& cameras_csv, const std::filesystem::path& reference_csv,
+nlohmann::json TrajectoryError(const std::vector<CameraRow>& cameras, const std::filesystem::path& reference_csv,
                                int max_points);
 
 /// Date, frames, length, CRS, GNSS quality and surface figures for the summary panel.

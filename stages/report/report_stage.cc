@@ -228,14 +228,9 @@ std::string ReportStage::ExtraKeyOf(const SurveyFile& survey, const ReportOption
   KeyHasher h;
   for (const ReportAsset& a : ReportAssets())
     h.Add(a.name).Add(std::string_view(reinterpret_cast<const char*>(a.bytes), a.size));
-  if (!o.reference_trajectory.empty()) {
-    const fs::path ref = survey.Resolve(o.reference_trajectory);
-    h.Add(fs::exists(ref) ? ReadBytes(ref) : std::string());
-  }
-  for (const std::string& f : LeafletFiles()) {
-    const fs::path p = fs::path(o.leaflet_dir) / f;
-    h.Add(fs::exists(p) ? ReadBytes(p) : std::string());
-  }
+  const auto digest = [](const fs::path& p) { return fs::exists(p) ? Sha256OfFile(p) : std::string("missing"); };
+  if (!o.reference_trajectory.empty()) h.Add(digest(survey.Resolve(o.reference_trajectory)));
+  for (const std::string& f : LeafletFiles()) h.Add(digest(fs::path(o.leaflet_dir) / f));
   return h.Hex();
 }
 
@@ -249,7 +244,8 @@ void ReportStage::Run(StageContext& ctx, const ReportOptions& o) const {
   CopyLeaflet(o.leaflet_dir, report);
 
   const nlohmann::json georeference = ReadJsonFile(src.at("georeference") / "georeference.json");
-  const ReportTrack track = TrackOf(src.at("georeference") / "cameras.csv");
+  const std::vector<CameraRow> cameras = ReadCamerasCsv(src.at("georeference") / "cameras.csv");
+  const ReportTrack track = TrackOf(cameras);
   const fs::path ortho_tif = src.at("surface") / "surface" / "ortho.tif";
   std::optional<OrthoPieces> ortho;
   if (fs::exists(ortho_tif)) ortho = WriteOrthoPieces(ortho_tif, report, {o.ortho_max_pixels, o.ortho_piece_px, o.ortho_quality});
@@ -268,7 +264,7 @@ void ReportStage::Run(StageContext& ctx, const ReportOptions& o) const {
   else
     ctx.Warn("the cameras are not georeferenced: the report has no map");
   if (!o.reference_trajectory.empty())
-    data["trajectory_error"] = TrajectoryError(src.at("georeference") / "cameras.csv",
+    data["trajectory_error"] = TrajectoryError(cameras,
                                                ctx.survey().Resolve(o.reference_trajectory), o.trajectory_max_points);
   WriteData(report, "report", "ROADSURVEY_REPORT", data);
   WriteData(report, "run", "ROADSURVEY_RUN", RunRecord(src));

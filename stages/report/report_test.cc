@@ -150,7 +150,7 @@ TEST(Track, LengthDurationSkipsAndStride) {
                        500000 + 3 * i, 5000000 + 4 * i);
   csv += "5,1500000000,,,,,,,,,,skipped\n";
   WriteText(dir / "cameras.csv", csv);
-  const ReportTrack t = TrackOf(dir / "cameras.csv");
+  const ReportTrack t = TrackOf(ReadCamerasCsv(dir / "cameras.csv"));
   EXPECT_EQ(t.positions.size(), 5u);
   EXPECT_EQ(t.skipped, 1);
   EXPECT_NEAR(t.length_m, 20.0, 1e-9);  // four steps of (3, 4)
@@ -167,7 +167,7 @@ TEST(Track, MalformedRowNamesFileLineAndColumn) {
   WriteText(dir / "cameras.csv", std::string(kCamerasHeader) + "0,1,500000,5000000,1,46,15,1,0,0,0,visual\n" +
                                      "1,2,5000x1,5000000,1,46,15,1,0,0,0,visual\n");
   try {
-    TrackOf(dir / "cameras.csv");
+    ReadCamerasCsv(dir / "cameras.csv");
     FAIL() << "no error";
   } catch (const InputError& e) {
     EXPECT_EQ(e.where().line, 3);
