@@ -19,6 +19,7 @@
 #include "formats/flight_log/kitti_oxts.h"
 #include "formats/rectified_stereo.h"
 #include "formats/stereo/image_io.h"
+#include "formats/stereo/pair_prefetch.h"
 #include "formats/stereo/rectifier.h"
 #include "formats/stereo/stereo_source.h"
 #include "formats/trajectory/trajectory_file.h"
@@ -92,13 +93,18 @@ SlamRunReport RunSource(const StereoSource& source, const StereoCalibration& rec
   rep.width = rectified.left.width;
   rep.height = rectified.left.height;
   StereoSlam slam(rectified, options);
-  // options.parallel: frame i+1's features are extracted while frame i is tracked (same results).
-  SlamPipeline pipeline(&slam, options.parallel);
+  // As in the slam stage: pairs decoded ahead on worker threads, later frames' features extracted
+  // while a frame is tracked (options.parallel; same results). The wall time includes the decoding.
   const size_t n = max_frames < 0 ? source.frames().size() : std::min<size_t>(max_frames, source.frames().size());
+  std::vector<StereoPairFiles> files;
+  for (size_t i = 0; i < n; ++i) files.push_back({source.frames()[i].left, source.frames()[i].right});
+  SlamPipeline pipeline(&slam, options.parallel);
+  const double c0 = CpuSeconds();
+  const auto t0 = Clock::now();
+  StereoPairPrefetcher images(std::move(files), kSlamDecodeAheadPairs);
   for (size_t i = 0; i < n; ++i) {
-    const StereoFrame& fr = source.frames()[i];
-    auto tl = Clock::now();
-    cv::Mat l = LoadGray8(fr.left), r = LoadGray8(fr.right);
+    const auto tl = Clock::now();
+    auto [l, r] = images.Next();
     if (rectifier) {
       cv::Mat lr, rr;
       rectifier->Rectify(l, r, &lr, &rr);
@@ -106,23 +112,17 @@ SlamRunReport RunSource(const StereoSource& source, const StereoCalibration& rec
       r = rr;
     }
     rep.load_s += std::chrono::duration<double>(Clock::now() - tl).count();
-    const double c0 = CpuSeconds();
-    const auto t0 = Clock::now();
-    if (auto f = pipeline.Push(fr.t_ns, l, r, priors ? (*priors)[i] : std::nullopt)) rep.frames.push_back(*f);
-    pipeline.WaitForExtraction();  // nothing of the SLAM runs during the next load: timings exclude it exactly
-    rep.wall_s += std::chrono::duration<double>(Clock::now() - t0).count();
-    rep.cpu_s += CpuSeconds() - c0;
+    if (auto f = pipeline.Push(source.frames()[i].t_ns, l, r, priors ? (*priors)[i] : std::nullopt))
+      rep.frames.push_back(*f);
   }
-  const double c0 = CpuSeconds();
-  const auto t0 = Clock::now();
-  if (auto f = pipeline.Flush()) rep.frames.push_back(*f);
+  for (FrameResult& f : pipeline.Flush()) rep.frames.push_back(f);
   const double c1 = CpuSeconds();
   rep.result = slam.Finish();
-  rep.wall_s += std::chrono::duration<double>(Clock::now() - t0).count();
-  rep.cpu_s += CpuSeconds() - c0;
+  rep.wall_s = std::chrono::duration<double>(Clock::now() - t0).count();
+  rep.cpu_s = CpuSeconds() - c0;
   if (options.parallel) {
     rep.finish_cpu_s = CpuSeconds() - c1;
-    rep.two_core_wall_s = pipeline.times().two_core_wall_s + rep.finish_cpu_s;
+    rep.two_core_wall_s = pipeline.times().TwoCoreWallSeconds() + rep.finish_cpu_s;
     rep.features_cpu_s = pipeline.times().extract_cpu_s;
     rep.track_cpu_s = pipeline.times().track_cpu_s;
   }
@@ -237,7 +237,7 @@ std::string SlamRunReport::Summary(const std::string& name) const {
       "(aligned; relative to the first frame, unaligned: {:.3f} deg)\n"
       "  wall {:.2f} s = {:.1f} frames/s (local mapping {:.2f} s, finish {:.2f} s), CPU {:.2f} s = {:.1f} "
       "frames/CPU-s, "
-      "two free cores (from thread CPU) {:.2f} s = {:.1f} frames/s, image loading {:.2f} s\n"
+      "two free cores (from thread CPU) {:.2f} s = {:.1f} frames/s, waiting for images {:.2f} s\n"
       "  CPU per frame: features {:.1f} ms, tracking + local mapping {:.1f} ms, finish {:.1f} ms\n  level-0 "
       "reprojection residual median {:.3f} px (p90 {:.3f}), right-u median {:.3f} px",
       name, width, height, result.stats.BriefReport(), ate.translation_m.rmse,

@@ -23,13 +23,13 @@ struct SlamRunReport {
   std::vector<Eigen::Vector3d>
       rot_rel_first_err;                 ///< per pair: that error as a rotation vector (truth camera frame), deg
   std::vector<double> gt_rel_first_deg;  ///< per pair: the true rotation since the first pair, deg
-  double wall_s = 0;                     ///< Track + Finish wall time (image loading and rectification excluded)
+  double wall_s = 0;                     ///< decoding (ahead, as in the stage), Track and Finish: wall time
   double cpu_s = 0;                      ///< process CPU time over the same span (all threads)
-  /// Wall time the same work implies on two free cores (pipelined runs, SlamPipelineTimes): per
-  /// step max(longest task, CPU / 2) from per-thread CPU times, plus Finish's CPU; 0 if not pipelined.
+  /// Wall time the same work implies on two free cores (pipelined runs, SlamPipelineTimes::TwoCoreWallSeconds
+  /// from per-thread CPU times, plus Finish's CPU); 0 if not pipelined.
   double two_core_wall_s = 0;
   double features_cpu_s = 0, track_cpu_s = 0, finish_cpu_s = 0;  ///< its parts (pipelined runs): thread CPU, s
-  double load_s = 0;                                             ///< image loading (+ rectification) wall time
+  double load_s = 0;  ///< of it, the tracking thread waiting for a decoded pair (+ rectification)
   /// Median / 90th percentile of the final map's level-0 reprojection residuals (|(du, dv)| and
   /// |du_right|, px) with the final keyframe poses: how consistent keypoints, depths and poses are.
   double reproj_median_px = 0, reproj_p90_px = 0, reproj_right_median_px = 0;

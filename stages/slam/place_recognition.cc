@@ -1,13 +1,52 @@
 #include "stages/slam/place_recognition.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <random>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 #include "stages/slam/stereo_features.h"
 
 namespace rs {
+namespace {
+
+// Byte v spread over the eight bytes of a word, bit j of v in byte j: adding such words counts eight bits
+// at once (up to 255 additions before a byte could overflow).
+constexpr std::array<uint64_t, 256> kBitsToBytes = [] {
+  std::array<uint64_t, 256> t{};
+  for (int v = 0; v < 256; ++v)
+    for (int j = 0; j < 8; ++j) t[v] |= static_cast<uint64_t>((v >> j) & 1) << (8 * j);
+  return t;
+}();
+
+// ones[c][b] += bit b of every descriptor assigned to c; count[c] += their number.
+void CountBits(const std::vector<const uint8_t*>& descs, const std::vector<int>& assign,
+               std::vector<std::array<int, 256>>* ones, std::vector<int>* count) {
+  const size_t k = ones->size();
+  std::vector<std::array<uint64_t, 32>> packed(k);
+  std::vector<int> in_packed(k, 0);
+  for (auto& p : packed) p.fill(0);
+  auto spill = [&](size_t c) {
+    for (int byte = 0; byte < 32; ++byte)
+      for (int j = 0; j < 8; ++j) (*ones)[c][8 * byte + j] += static_cast<int>((packed[c][byte] >> (8 * j)) & 0xff);
+    packed[c].fill(0);
+    in_packed[c] = 0;
+  };
+  for (size_t i = 0; i < descs.size(); ++i) {
+    const size_t c = static_cast<size_t>(assign[i]);
+    ++(*count)[c];
+    for (int byte = 0; byte < 32; ++byte) packed[c][byte] += kBitsToBytes[descs[i][byte]];
+    if (++in_packed[c] == 255) spill(c);
+  }
+  for (size_t c = 0; c < k; ++c) spill(c);
+}
+
+}  // namespace
 
 Vocabulary Vocabulary::Build(const std::vector<const uint8_t*>& descriptors, int branching, int depth, unsigned seed) {
   Vocabulary v;
@@ -54,24 +93,24 @@ void Vocabulary::Split(int node, std::vector<const uint8_t*> descs, int branchin
   const int k = static_cast<int>(centers.size());
   std::vector<int> assign(descs.size(), 0);
   for (int iter = 0; iter < 6; ++iter) {
-    for (size_t i = 0; i < descs.size(); ++i) {
-      int best = 257;
-      for (int c = 0; c < k; ++c) {
-        const int d = DescriptorDistance(descs[i], centers[c].data());
-        if (d < best) {
-          best = d;
-          assign[i] = c;
+    // Each descriptor's nearest centre (independent per descriptor: the same assignment on any thread count).
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, descs.size(), 1024), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t i = r.begin(); i != r.end(); ++i) {
+        int best = 257;
+        for (int c = 0; c < k; ++c) {
+          const int d = DescriptorDistance(descs[i], centers[c].data());
+          if (d < best) {
+            best = d;
+            assign[i] = c;
+          }
         }
       }
-    }
+    });
     // k-majority: each bit of a centre is the majority of its members' bits.
     std::vector<std::array<int, 256>> ones(k);
     std::vector<int> count(k, 0);
     for (auto& o : ones) o.fill(0);
-    for (size_t i = 0; i < descs.size(); ++i) {
-      ++count[assign[i]];
-      for (int b = 0; b < 256; ++b) ones[assign[i]][b] += (descs[i][b >> 3] >> (b & 7)) & 1;
-    }
+    CountBits(descs, assign, &ones, &count);
     for (int c = 0; c < k; ++c) {
       if (count[c] == 0) continue;
       centers[c].fill(0);

@@ -61,7 +61,7 @@ struct SlamOptions {
       0;  ///< global BA: stereo disparity sigma, px (0: right-image u at the keypoint's sigma, as the local BA)
   // --- determinism / threads
   unsigned ransac_seed = 1;  ///< seed of every RANSAC: same input and seed give the same result
-  bool parallel = true;      ///< extract features on two threads (left, right) while the previous frame is tracked
+  bool parallel = true;      ///< extract the next frames' features on two threads (left, right) while one is tracked
                              ///< (SlamPipeline; result unchanged)
 
   /// Throws rs::OptionError naming the violated rule ("slam.features = 10 violates features >= 100").

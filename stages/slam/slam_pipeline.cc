@@ -18,10 +18,18 @@ double ThreadCpuSeconds() {
 
 }  // namespace
 
-SlamPipeline::SlamPipeline(StereoSlam* slam, bool overlap) : slam_(slam), overlap_(overlap) {}
+double SlamPipelineTimes::TwoCoreWallSeconds() const {
+  const double overlapped_track = track_cpu_s - serial_cpu_s;
+  return serial_cpu_s + std::max(overlapped_track, 0.5 * (extract_cpu_s + overlapped_track));
+}
+
+SlamPipeline::SlamPipeline(StereoSlam* slam, bool overlap, int lookahead)
+    : slam_(slam), overlap_(overlap), lookahead_(lookahead) {
+  if (lookahead < 1) throw std::invalid_argument(fmt::format("SlamPipeline: lookahead {} < 1", lookahead));
+}
 
 SlamPipeline::~SlamPipeline() {
-  WaitForExtraction();  // it still references its images (results are dropped)
+  WaitForExtraction();  // the threads still reference their images (results are dropped)
 }
 
 std::optional<FrameResult> SlamPipeline::Push(int64_t t_ns, const cv::Mat& left, const cv::Mat& right,
@@ -33,14 +41,14 @@ std::optional<FrameResult> SlamPipeline::Push(int64_t t_ns, const cv::Mat& left,
         fmt::format("SlamPipeline::Push: expected two 8-bit grey {}x{} images, got {}x{} and {}x{}", cam.width,
                     cam.height, left.cols, left.rows, right.cols, right.rows));
   if (!overlap_) return slam_->Track(t_ns, left, right, prior);
-  if (!pending_ && !slam_->RegimeDecided()) {
+  if (pending_.empty() && !slam_->RegimeDecided()) {
     // Until the first frames have decided the regime, and with it the front end's options
     // (slam_regime.h) that the next extraction reads, each frame is tracked before anything runs beside it.
     const double c0 = ThreadCpuSeconds();
     std::optional<FrameResult> previous = std::exchange(held_, slam_->Track(t_ns, left, right, prior));
     const double cpu = ThreadCpuSeconds() - c0;
     times_.track_cpu_s += cpu;
-    times_.two_core_wall_s += cpu;
+    times_.serial_cpu_s += cpu;
     return previous;
   }
   Pending next;
@@ -48,6 +56,15 @@ std::optional<FrameResult> SlamPipeline::Push(int64_t t_ns, const cv::Mat& left,
   next.left = left;
   next.right = right;
   next.prior = prior;
+  next.features = StartExtraction(left, right);
+  pending_.push_back(std::move(next));
+  // held_ exists only when nothing was pending before this frame, so at most one result is due here.
+  std::optional<FrameResult> out = std::exchange(held_, std::nullopt);
+  if (!out && static_cast<int>(pending_.size()) > lookahead_) out = TrackOldest();
+  return out;
+}
+
+std::future<SlamPipeline::Extracted> SlamPipeline::StartExtraction(const cv::Mat& left, const cv::Mat& right) const {
   // Plain threads rather than TBB tasks: the tracking thread does not join TBB's arena, so with two
   // cores TBB would run both extractions on its single worker one after the other.
   const StereoSlam* slam = slam_;
@@ -60,7 +77,7 @@ std::optional<FrameResult> SlamPipeline::Push(int64_t t_ns, const cv::Mat& left,
         return std::make_pair(std::move(f), ThreadCpuSeconds() - c0);
       },
       right);
-  next.features = std::async(
+  return std::async(
       std::launch::async,
       [slam](cv::Mat l_image, cv::Mat r_image, std::future<std::pair<OrbFeatures, double>> r_future) {
         Extracted e;
@@ -76,43 +93,28 @@ std::optional<FrameResult> SlamPipeline::Push(int64_t t_ns, const cv::Mat& left,
         return e;
       },
       left, right, std::move(right_orb));
-  std::optional<FrameResult> out = std::exchange(held_, std::nullopt);
-  double track_cpu = 0;
-  if (pending_) out = TrackPending(&track_cpu);
-  pending_ = std::move(next);
-  pending_track_cpu_ = track_cpu;  // accounted with this extraction's CPU when it is collected
+}
+
+std::vector<FrameResult> SlamPipeline::Flush() {
+  std::vector<FrameResult> out;
+  if (held_) out.push_back(*std::exchange(held_, std::nullopt));  // the last frame was tracked at its Push
+  while (!pending_.empty()) out.push_back(TrackOldest());
   return out;
 }
 
-std::optional<FrameResult> SlamPipeline::Flush() {
-  if (held_) return std::exchange(held_, std::nullopt);  // the last frame was tracked at its Push
-  if (!pending_) return std::nullopt;
-  double track_cpu = 0;
-  FrameResult r = TrackPending(&track_cpu);
-  pending_.reset();
-  times_.track_cpu_s += track_cpu;
-  times_.two_core_wall_s += track_cpu;  // nothing runs beside the last frame's tracking
-  return r;
-}
-
 void SlamPipeline::WaitForExtraction() {
-  if (pending_ && pending_->features.valid()) pending_->features.wait();
+  for (Pending& p : pending_)
+    if (p.features.valid()) p.features.wait();
 }
 
-FrameResult SlamPipeline::TrackPending(double* cpu_s) {
-  Pending& p = *pending_;
+FrameResult SlamPipeline::TrackOldest() {
+  Pending p = std::move(pending_.front());
+  pending_.pop_front();
   Extracted e = p.features.get();
-  // This extraction ran beside the tracking of the frame before it (pending_track_cpu_): one step.
-  const double t_cpu = pending_track_cpu_;
-  const double x_cpu = e.left_cpu_s + e.right_cpu_s + e.match_cpu_s;
-  times_.extract_cpu_s += x_cpu;
-  times_.track_cpu_s += t_cpu;
-  times_.two_core_wall_s +=
-      std::max({std::max(e.left_cpu_s, e.right_cpu_s) + e.match_cpu_s, t_cpu, 0.5 * (x_cpu + t_cpu)});
-  pending_track_cpu_ = 0;
+  times_.extract_cpu_s += e.left_cpu_s + e.right_cpu_s + e.match_cpu_s;
   const double c0 = ThreadCpuSeconds();
   FrameResult out = slam_->Track(p.t_ns, std::move(e.features), p.prior);
-  *cpu_s = ThreadCpuSeconds() - c0;
+  times_.track_cpu_s += ThreadCpuSeconds() - c0;
   return out;
 }
 

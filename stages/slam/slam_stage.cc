@@ -7,12 +7,13 @@
 
 #include <chrono>
 #include <sstream>
+#include <tuple>
 
 #include "formats/checked_file.h"
 #include "formats/frame_priors.h"
 #include "formats/slam_map/slam_map_file.h"
 #include "formats/stereo/calibration_yaml.h"
-#include "formats/stereo/image_io.h"
+#include "formats/stereo/pair_prefetch.h"
 #include "formats/trajectory/tum_trajectory.h"
 #include "stages/slam/slam_pipeline.h"
 #include "stages/slam/stereo_slam.h"
@@ -112,7 +113,7 @@ const OptionTable<SlamOptions>& SlamTable() {
           .Min(0)
           .Add("ransac_seed", &SlamOptions::ransac_seed, "seed of every RANSAC (same input and seed, same result)")
           .Add("parallel", &SlamOptions::parallel,
-               "extract features on two threads while the previous frame is tracked (result unchanged)");
+               "extract the next frames' features on two threads while a frame is tracked (result unchanged)");
   return t;
 }
 
@@ -147,10 +148,10 @@ std::vector<std::optional<PosePrior>> MakePriors(const std::vector<FrameRecord>&
 
 // Reads a frame's pair; a frame whose images are missing or unreadable is skipped (by id and
 // reason, see StageContext::SkipFrame) and the trajectory goes on without it.
-bool LoadFrameOrSkip(StageContext& ctx, const FrameRecord& f, cv::Mat* left, cv::Mat* right) {
+bool NextPairOrSkip(StageContext& ctx, const FrameRecord& f, StereoPairPrefetcher& images, cv::Mat* left,
+                    cv::Mat* right) {
   try {
-    *left = LoadGray8(f.left);
-    *right = LoadGray8(f.right);
+    std::tie(*left, *right) = images.Next();
     return true;
   } catch (const InputError& e) {
     ctx.SkipFrame(f.id, e.message(), e.where().ToString());
@@ -201,7 +202,8 @@ const OptionTable<SlamStageOptions>& SlamStageOptions::Table() {
 StageInfo SlamStage::Info() {
   StageInfo info;
   info.name = "slam";
-  info.version = 4;  // 4: map observations carry pyramid level and stereo match
+  // 5: frames held by stereo odometry instead of lost; 4: map observations carry pyramid level and stereo match
+  info.version = 5;
   info.doc =
       "Stereo visual SLAM (ORB features, stereo depth, motion-only and local bundle adjustment, loop "
       "closing, global BA) over the frames in time order, GNSS positions as priors.";
@@ -230,9 +232,9 @@ void SlamStage::Run(StageContext& ctx, const SlamStageOptions& o) const {
   // mostly by the flight log's displacement) or "motion-model" (lost; constant-velocity prediction).
   status << "frame_id,t_ns,status,position,segment,features,stereo_features,inliers,keyframe\n";
   std::map<std::string, int> by_status;
-  // Frame i+1's features are extracted while frame i is tracked (o.slam.parallel; same results):
-  // Push returns the result of an earlier pushed frame, Flush the last one; `pushed` holds the
-  // frames whose results are still to come, in order.
+  // Later frames' features are extracted while a frame is tracked (o.slam.parallel; same results):
+  // Push returns the result of an earlier pushed frame, Flush the rest; `pushed` holds the frames
+  // whose results are still to come, in order.
   SlamPipeline pipeline(&slam, o.slam.parallel);
   std::deque<size_t> pushed;
   auto record = [&](const FrameResult& r) {
@@ -247,10 +249,13 @@ void SlamStage::Run(StageContext& ctx, const SlamStageOptions& o) const {
     ctx.progress().Advance();
   };
   int64_t skipped = 0;
+  // Pairs are decoded a few frames ahead on worker threads: memory stays flat however long the survey.
+  std::vector<StereoPairFiles> files;
+  for (const FrameRecord& f : frames) files.push_back({f.left, f.right});
+  StereoPairPrefetcher images(std::move(files), kSlamDecodeAheadPairs);
   for (size_t i = 0; i < frames.size(); ++i) {
-    // Images are read one frame at a time: memory stays flat however long the survey.
     cv::Mat left, right;
-    if (!LoadFrameOrSkip(ctx, frames[i], &left, &right)) {
+    if (!NextPairOrSkip(ctx, frames[i], images, &left, &right)) {
       ++skipped;
       ctx.progress().Advance();
       continue;
@@ -258,7 +263,7 @@ void SlamStage::Run(StageContext& ctx, const SlamStageOptions& o) const {
     pushed.push_back(i);
     if (const auto r = pipeline.Push(frames[i].t_ns, left, right, priors[i])) record(*r);
   }
-  if (const auto r = pipeline.Flush()) record(*r);
+  for (const FrameResult& r : pipeline.Flush()) record(r);
   ctx.progress().Finish();
   const SlamResult result = slam.Finish();
 
@@ -275,6 +280,7 @@ void SlamStage::Run(StageContext& ctx, const SlamStageOptions& o) const {
   ctx.Count("keyframes", s.keyframes);
   ctx.Count("map_points", s.map_points);
   ctx.Count("frames_gnss_positioned", s.gnss_positioned);
+  ctx.Count("frames_held_by_odometry", s.held_by_odometry);
   ctx.Count("segments", s.segments);
   ctx.Count("loops_closed", s.loops_closed);
   ctx.Count("loop_candidates", s.loop_candidates);

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstring>
 #include <numeric>
+#include <stdexcept>
 
 #include <opencv2/features2d.hpp>
 #include <tbb/parallel_invoke.h>
@@ -81,8 +82,8 @@ void ExtractOrb(const cv::Mat& gray, const SlamOptions& options, std::vector<cv:
       cv::ORB::create(options.features * 2, static_cast<float>(options.scale_factor), options.pyramid_levels, 19, 0, 2,
                       cv::ORB::HARRIS_SCORE, 31, options.fast_threshold);
   std::vector<cv::KeyPoint> all;
-  cv::Mat all_desc;
-  orb->detectAndCompute(gray, cv::noArray(), all, all_desc);
+  orb->detect(gray, all);
+  const std::vector<cv::KeyPoint> detected = all;  // cv::ORB's own coordinates, for its descriptors below
   // cv::ORB maps a level-k corner to level 0 as x_k * scale_k, but its pyramid is resized with the
   // pixel-centre convention, x_0 = (x_k + 0.5) * W_0 / W_k - 0.5: without this the coordinates of
   // coarse-level corners are 0.5 (scale - 1) px too small (1.3 px at level 7), which biases the stereo
@@ -119,13 +120,17 @@ void ExtractOrb(const cv::Mat& gray, const SlamOptions& options, std::vector<cv:
     if (!taken[i]) keep.push_back(i);
   }
   std::sort(keep.begin(), keep.end());
+  // Descriptors of the kept corners only (half the over-detected set): cv::ORB computes them on the same
+  // pyramid and smoothing as detectAndCompute would, so they are the same bits.
+  std::vector<cv::KeyPoint> kept;
+  kept.reserve(keep.size());
+  for (int i : keep) kept.push_back(detected[i]);
+  orb->compute(gray, kept, *descriptors);
+  if (kept.size() != keep.size())
+    throw std::logic_error("ExtractOrb: cv::ORB::compute dropped corners that cv::ORB::detect returned");
   keypoints->clear();
   keypoints->reserve(keep.size());
-  *descriptors = cv::Mat(static_cast<int>(keep.size()), 32, CV_8U);
-  for (size_t k = 0; k < keep.size(); ++k) {
-    keypoints->push_back(all[keep[k]]);
-    all_desc.row(keep[k]).copyTo(descriptors->row(static_cast<int>(k)));
-  }
+  for (int i : keep) keypoints->push_back(all[i]);
 }
 
 namespace {

@@ -28,10 +28,10 @@ const char* ToString(FrameStatus status) {
 
 std::string SlamStatistics::BriefReport() const {
   return fmt::format(
-      "regime {}, {} frames ({} tracked, {} relocalised, {} prior-only of which {} GNSS-positioned), {} keyframes, "
-      "{} points, {} segments, {} loops closed ({} rejected of {} candidates)",
-      ToString(regime), frames, tracked, relocalised, prior_only, gnss_positioned, keyframes, map_points, segments,
-      loops_closed, loops_rejected, loop_candidates);
+      "regime {}, {} frames ({} tracked of which {} held by odometry, {} relocalised, {} prior-only of which {} "
+      "GNSS-positioned), {} keyframes, {} points, {} segments, {} loops closed ({} rejected of {} candidates)",
+      ToString(regime), frames, tracked, held_by_odometry, relocalised, prior_only, gnss_positioned, keyframes,
+      map_points, segments, loops_closed, loops_rejected, loop_candidates);
 }
 
 using stereo_slam_internal::Clock;
@@ -169,9 +169,19 @@ FrameResult StereoSlam::Impl::Track(int64_t t_ns, StereoFeatures features, const
       if (ok) status = FrameStatus::kRelocalised;
     }
     int inliers = 0;
+    bool held_by_odometry = false;
     if (ok) {
       inliers = TrackLocalMap(&cur, status == FrameStatus::kRelocalised ? 3.0 : 1.0);
       ok = inliers >= opt.min_tracked_inliers;
+      // Few map points but many of the previous frame's stereo points (a fast view that keeps
+      // little of the last keyframe: a car's road 3 m ahead, a turn): the pose is as well measured
+      // as stereo odometry makes it, so the frame is tracked and becomes a keyframe at once, which
+      // puts its stereo points into the map for the next frame. The bar is the weak-frame one of the
+      // keyframe decision (3 x min_tracked_inliers).
+      if (!ok && status == FrameStatus::kTracked && cur.all_inliers >= 3 * opt.min_tracked_inliers) {
+        ok = held_by_odometry = true;
+        ++stats.held_by_odometry;
+      }
     }
     if (!ok && status == FrameStatus::kTracked) {
       cur.T_cam_world = predicted;
@@ -186,7 +196,7 @@ FrameResult StereoSlam::Impl::Track(int64_t t_ns, StereoFeatures features, const
       result.inliers = inliers;
       // Relocalised into another map segment (an older map re-found after a loss): continue in it.
       segment = map.keyframes[ref_kf].segment;
-      if (NeedKeyframe(cur, inliers)) {
+      if (held_by_odometry || NeedKeyframe(cur, inliers)) {
         CreateKeyframe(&cur, false);
         result.keyframe = true;
       }

@@ -64,6 +64,9 @@ struct SlamStatistics {
   std::string regime_reason;
   int frames = 0, tracked = 0, relocalised = 0, prior_only = 0;
   int gnss_positioned = 0;  ///< prior-only frames placed mostly (weight >= 0.5) by the flight log
+  /// tracked frames with fewer than min_tracked_inliers map points, held by >= 3x that many stereo
+  /// inliers of the previous frame's points (each made a keyframe)
+  int held_by_odometry = 0;
   int keyframes = 0, map_points = 0, segments = 1;
   int loop_candidates = 0, loops_rejected = 0, loops_closed = 0;
   int vocabulary_words = 0;

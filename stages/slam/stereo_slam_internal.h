@@ -40,6 +40,9 @@ struct TrackFrame {
   Eigen::Isometry3d T_cam_world = Eigen::Isometry3d::Identity();
   std::optional<PosePrior> prior;
   double close_depth_m = 0;  // stereo points nearer than this are "close" (CloseDepthLimit)
+  // Inliers of the last pose optimisation, map points and the previous frame's temporary stereo
+  // points together (OptimizeAndClean returns the map points' alone).
+  int all_inliers = 0;
   void Reset(size_t n) {
     mp.assign(n, -1);
     p_world.assign(n, Eigen::Vector3d::Zero());

@@ -213,8 +213,8 @@ TEST(StereoSlam, EurocMicro) {
   EXPECT_EQ(r.result.stats.disparity_offset_applied_px, 0.0);
 }
 
-// Same input, same trajectory, bit for bit: two pipelined runs (features of frame k+1 extracted on
-// two threads while frame k is tracked, SlamPipeline) and a sequential one, with the default
+// Same input, same trajectory, bit for bit: two pipelined runs (features of the next frames extracted
+// on two threads each while frame k is tracked, SlamPipeline) and a sequential one, with the default
 // configuration plus keyframe triangulation and a disparity correction (bundle_adjust_solver.h's local BA).
 // The first frame chooses the forward regime, which raises the feature count for every later frame's
 // extraction: the pipeline must not have started frame 1's before.

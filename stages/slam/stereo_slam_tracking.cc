@@ -82,6 +82,7 @@ std::vector<PoseObservation> StereoSlam::Impl::Observations(const TrackFrame& cu
 int StereoSlam::Impl::OptimizeAndClean(TrackFrame* cur) {
   std::vector<int> index;
   std::vector<PoseObservation> obs = Observations(*cur, &index);
+  cur->all_inliers = 0;
   if (obs.size() < 3) return 0;
   OptimizePose(cam, &obs, &cur->T_cam_world);
   int map_inliers = 0;
@@ -90,9 +91,10 @@ int StereoSlam::Impl::OptimizeAndClean(TrackFrame* cur) {
     if (obs[k].outlier) {
       cur->has[i] = 0;
       cur->mp[i] = -1;
-    } else if (cur->mp[i] >= 0) {
-      ++map_inliers;
+      continue;
     }
+    ++cur->all_inliers;
+    if (cur->mp[i] >= 0) ++map_inliers;
   }
   return map_inliers;
 }
