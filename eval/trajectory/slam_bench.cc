@@ -88,6 +88,7 @@ int main(int argc, char** argv) {
     if (const char* f = std::getenv("SLAM_BA_FIXED_SIZE")) opt.local_ba_fixed_size = std::atoi(f) != 0;
     if (const char* f = std::getenv("SLAM_LOOP_CLOSURE")) opt.loop_closure = std::atoi(f) != 0;
     if (const char* f = std::getenv("SLAM_SELF_CALIBRATION")) opt.disparity_self_calibration = std::atoi(f) != 0;
+    if (const char* f = std::getenv("SLAM_PARALLEL")) opt.parallel = std::atoi(f) != 0;
     if (!only_sim) {
       // KITTI's rectified pairs measure disparities ~0.24 px short of the metric truth
       // (docs/stages/slam.md). The KITTI configuration self-calibrates that offset from the map
