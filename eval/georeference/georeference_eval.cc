@@ -6,11 +6,11 @@
 #include <cmath>
 #include <fstream>
 #include <map>
-#include <sstream>
 
 #include "eval/georeference/colmap_aligner.h"
 #include "formats/flight_log/flight_log.h"
 #include "formats/frame_priors.h"
+#include "formats/geo/cameras_csv.h"
 #include "formats/input_error.h"
 #include "formats/trajectory/tum_trajectory.h"
 
@@ -41,15 +41,6 @@ nlohmann::json ReadJson(const fs::path& p) {
   }
 }
 
-std::vector<std::string> SplitCsv(const std::string& line) {
-  std::vector<std::string> f;
-  std::stringstream ss(line);
-  std::string x;
-  while (std::getline(ss, x, ',')) f.push_back(x);
-  if (!line.empty() && line.back() == ',') f.emplace_back();
-  return f;
-}
-
 Eigen::Matrix3d FromYprDeg(double yaw, double pitch, double roll) {
   return (Eigen::AngleAxisd(yaw / kRad2Deg, Eigen::Vector3d::UnitZ()) *
           Eigen::AngleAxisd(pitch / kRad2Deg, Eigen::Vector3d::UnitY()) *
@@ -60,28 +51,15 @@ Eigen::Matrix3d FromYprDeg(double yaw, double pitch, double roll) {
 }  // namespace
 
 std::vector<EnuCamera> ReadOurCameras(const fs::path& csv, const GeographicLib::LocalCartesian& enu) {
-  std::ifstream in(csv);
-  if (!in) throw InputError(InputLocation::File(csv.string()), "cannot open");
   std::vector<EnuCamera> out;
-  std::string line;
-  int64_t n = 0;
-  std::getline(in, line);
-  ++n;
-  while (std::getline(in, line)) {
-    ++n;
-    const auto f = SplitCsv(line);
-    if (f.size() != 12) throw InputError(InputLocation::Line(csv.string(), n), fmt::format("expected 12 fields, got {}", f.size()));
-    if (f[11] != "visual") continue;
-    try {
-      EnuCamera c;
-      c.frame = std::stoll(f[0]);
-      c.t_ns = std::stoll(f[1]);
-      enu.Forward(std::stod(f[5]), std::stod(f[6]), std::stod(f[7]), c.p_enu.x(), c.p_enu.y(), c.p_enu.z());
-      if (!f[8].empty()) c.R_ned_body = FromYprDeg(std::stod(f[10]), std::stod(f[9]), std::stod(f[8]));
-      out.push_back(c);
-    } catch (const std::exception&) {
-      throw InputError(InputLocation::Line(csv.string(), n), "a field is not a number");
-    }
+  for (const CameraRow& r : ReadCamerasCsv(csv)) {
+    if (r.status != "visual" || !r.crs) continue;
+    EnuCamera c;
+    c.frame = r.frame;
+    c.t_ns = r.t_ns;
+    enu.Forward(r.lat_deg, r.lon_deg, r.h_ellipsoid_m, c.p_enu.x(), c.p_enu.y(), c.p_enu.z());
+    if (r.rpy_deg) c.R_ned_body = FromYprDeg(r.rpy_deg->z(), r.rpy_deg->y(), r.rpy_deg->x());
+    out.push_back(c);
   }
   return out;
 }
@@ -107,7 +85,8 @@ fs::path FindFramePriors(const fs::path& output_dir) {
 
 }  // namespace
 
-CameraErrors CompareCameras(const std::vector<EnuCamera>& est, const std::vector<std::pair<int64_t, Eigen::Isometry3d>>& truth,
+CameraErrors CompareCameras(const std::vector<EnuCamera>& est,
+                            const std::vector<std::pair<int64_t, Eigen::Isometry3d>>& truth,
                             const Eigen::Matrix3d& R_body_cam) {
   std::map<int64_t, Eigen::Isometry3d> by_t(truth.begin(), truth.end());
   CameraErrors e;
@@ -160,16 +139,19 @@ nlohmann::json CameraErrors::ToJson() const {
           {"pitch_deg", {{"rms", pitch_rms_deg}, {"max", pitch_max_deg}}},
           {"roll_deg", {{"rms", roll_rms_deg}, {"max", roll_max_deg}}},
           {"mean_angle_error_deg",
-           {{"heading", mean_angle_error_deg.x()}, {"pitch", mean_angle_error_deg.y()}, {"roll", mean_angle_error_deg.z()}}}};
+           {{"heading", mean_angle_error_deg.x()},
+            {"pitch", mean_angle_error_deg.y()},
+            {"roll", mean_angle_error_deg.z()}}}};
 }
 
 nlohmann::json GeoreferenceEvaluation::ToJson() const {
-  nlohmann::json j = {{"ours", ours.ToJson()},
-                      {"colmap_model_aligner", colmap ? colmap->ToJson() : nlohmann::json()},
-                      {"colmap_note", colmap_note},
-                      {"realised_gnss_bias_enu_m", {realised_bias_enu_m.x(), realised_bias_enu_m.y(), realised_bias_enu_m.z()}},
-                      {"realised_gnss_bias_horizontal_m", realised_bias_enu_m.head<2>().norm()},
-                      {"bias_samples", bias_samples}};
+  nlohmann::json j = {
+      {"ours", ours.ToJson()},
+      {"colmap_model_aligner", colmap ? colmap->ToJson() : nlohmann::json()},
+      {"colmap_note", colmap_note},
+      {"realised_gnss_bias_enu_m", {realised_bias_enu_m.x(), realised_bias_enu_m.y(), realised_bias_enu_m.z()}},
+      {"realised_gnss_bias_horizontal_m", realised_bias_enu_m.head<2>().norm()},
+      {"bias_samples", bias_samples}};
   // What a fit to biased GNSS can reach: our mean error should be the bias.
   j["ours_mean_error_minus_bias_horizontal_m"] = (ours.mean_error_enu_m - realised_bias_enu_m).head<2>().norm();
   return j;
@@ -181,15 +163,16 @@ std::string GeoreferenceEvaluation::BriefReport() const {
         "{:<22} {:>3} frames  centre RMSE h {:.3f} m v {:.3f} m (max {:.3f} / {:.3f})  heading {:.3f}/{:.3f} deg  "
         "pitch {:.3f}/{:.3f}  roll {:.3f}/{:.3f} (RMS/max); mean h/p/r {:+.3f} {:+.3f} {:+.3f} deg\n",
         who, e.frames, e.horizontal_rmse_m, e.vertical_rmse_m, e.horizontal_max_m, e.vertical_max_m, e.heading_rms_deg,
-        e.heading_max_deg, e.pitch_rms_deg, e.pitch_max_deg, e.roll_rms_deg, e.roll_max_deg,
-        e.mean_angle_error_deg.x(), e.mean_angle_error_deg.y(), e.mean_angle_error_deg.z());
+        e.heading_max_deg, e.pitch_rms_deg, e.pitch_max_deg, e.roll_rms_deg, e.roll_max_deg, e.mean_angle_error_deg.x(),
+        e.mean_angle_error_deg.y(), e.mean_angle_error_deg.z());
   };
   std::string s = line("georeference", ours);
   s += colmap ? line("colmap model_aligner", *colmap) : "colmap model_aligner: " + colmap_note + "\n";
-  s += fmt::format("realised GNSS bias (log's camera events minus truth, {} frames): E {:+.3f} N {:+.3f} U {:+.3f} m "
-                   "(horizontal {:.3f} m); our mean error minus bias, horizontal: {:.3f} m\n",
-                   bias_samples, realised_bias_enu_m.x(), realised_bias_enu_m.y(), realised_bias_enu_m.z(),
-                   realised_bias_enu_m.head<2>().norm(), (ours.mean_error_enu_m - realised_bias_enu_m).head<2>().norm());
+  s += fmt::format(
+      "realised GNSS bias (log's camera events minus truth, {} frames): E {:+.3f} N {:+.3f} U {:+.3f} m "
+      "(horizontal {:.3f} m); our mean error minus bias, horizontal: {:.3f} m\n",
+      bias_samples, realised_bias_enu_m.x(), realised_bias_enu_m.y(), realised_bias_enu_m.z(),
+      realised_bias_enu_m.head<2>().norm(), (ours.mean_error_enu_m - realised_bias_enu_m).head<2>().norm());
   return s;
 }
 
@@ -201,7 +184,8 @@ GeoreferenceEvaluation EvaluateGeoreference(const fs::path& output_dir, const fs
   Eigen::Matrix3d R_body_cam;
   for (int i = 0; i < 9; ++i) R_body_cam(i / 3, i % 3) = R_rows.at(i);
   std::vector<std::pair<int64_t, Eigen::Isometry3d>> truth;
-  for (const auto& p : ReadTumTrajectory(truth_dir / "trajectory.tum").poses) truth.emplace_back(p.t_ns, p.T_world_frame);
+  for (const auto& p : ReadTumTrajectory(truth_dir / "trajectory.tum").poses)
+    truth.emplace_back(p.t_ns, p.T_world_frame);
 
   GeoreferenceEvaluation ev;
   ev.ours = CompareCameras(ReadOurCameras(output_dir / "cameras.csv", enu), truth, R_body_cam);
@@ -227,7 +211,8 @@ GeoreferenceEvaluation EvaluateGeoreference(const fs::path& output_dir, const fs
   }
   // model_aligner on the same inputs: the published SLAM trajectory and the frames' GNSS priors.
   std::vector<std::pair<int64_t, Eigen::Isometry3d>> slam;
-  for (const auto& p : ReadTumTrajectory(output_dir / "trajectory.tum").poses) slam.emplace_back(p.t_ns, p.T_world_frame);
+  for (const auto& p : ReadTumTrajectory(output_dir / "trajectory.tum").poses)
+    slam.emplace_back(p.t_ns, p.T_world_frame);
   std::map<int64_t, Eigen::Vector3d> refs;
   double sigma = 0;
   int n_sigma = 0;

@@ -8,10 +8,9 @@
 
 #include <algorithm>
 #include <cmath>
-#include <fstream>
-#include <sstream>
 
 #include "eval/damage_map/damage_map_eval.h"
+#include "formats/geo/cameras_csv.h"
 #include "formats/geo/georeference_file.h"
 #include "formats/geo/geotiff.h"
 #include "formats/checked_file.h"
@@ -24,10 +23,10 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr double kHoleLimitM = 0.05;
-constexpr double kImagedCloseM = 0.25;     // gaps narrower than this between fused cells lie inside the imaged road
-constexpr double kShiftSearchM = 0.10;     // planimetric search radius
-constexpr double kStepM = 0.05;          // a truth step this high between cells is a kerb face
-constexpr double kLocalSigmaM = 1.5;       // reach of a camera's placement error in TruthAsPlaced
+constexpr double kImagedCloseM = 0.25;  // gaps narrower than this between fused cells lie inside the imaged road
+constexpr double kShiftSearchM = 0.10;  // planimetric search radius
+constexpr double kStepM = 0.05;         // a truth step this high between cells is a kerb face
+constexpr double kLocalSigmaM = 1.5;    // reach of a camera's placement error in TruthAsPlaced
 
 struct Raster {
   cv::Mat z;  // CV_32F, NaN empty
@@ -120,9 +119,11 @@ Eigen::Vector2d PlanimetricOffset(const cv::Mat& ours, const cv::Mat& truth, dou
   };
   double fx = best.x, fy = best.y;
   if (best.x > 0 && best.x < 2 * R)
-    fx += refine(cost.at<double>(best.y, best.x - 1), cost.at<double>(best.y, best.x), cost.at<double>(best.y, best.x + 1));
+    fx += refine(cost.at<double>(best.y, best.x - 1), cost.at<double>(best.y, best.x),
+                 cost.at<double>(best.y, best.x + 1));
   if (best.y > 0 && best.y < 2 * R)
-    fy += refine(cost.at<double>(best.y - 1, best.x), cost.at<double>(best.y, best.x), cost.at<double>(best.y + 1, best.x));
+    fy += refine(cost.at<double>(best.y - 1, best.x), cost.at<double>(best.y, best.x),
+                 cost.at<double>(best.y + 1, best.x));
   // Content moved right (+col) is +x; moved down (+row) is −y.
   return {(fx - R) * cell, -(fy - R) * cell};
 }
@@ -197,26 +198,14 @@ struct CameraError {
 std::vector<CameraError> CameraErrorsCrs(const fs::path& cameras_csv, const fs::path& truth_tum,
                                          const GeographicLib::LocalCartesian& truth_enu, const OutputCrs& crs) {
   const Trajectory truth = ReadTumTrajectory(truth_tum);
-  std::ifstream in(cameras_csv);
-  if (!in) throw InputError(InputLocation::File(cameras_csv.string()), "cannot open (run the survey first)");
-  std::string line;
-  std::getline(in, line);
   std::vector<CameraError> out;
-  int line_no = 1;
-  while (std::getline(in, line)) {
-    ++line_no;
-    std::vector<std::string> f;
-    std::stringstream ss(line);
-    for (std::string cell; std::getline(ss, cell, ',');) f.push_back(cell);
-    if (f.size() < 12) throw InputError(InputLocation::Line(cameras_csv.string(), line_no), "expected 12 columns");
-    if (f[11] != "visual") continue;
-    const int64_t frame = std::stoll(f[0]);
-    if (frame < 0 || frame >= static_cast<int64_t>(truth.poses.size())) continue;
-    const Eigen::Vector3d t = truth.poses[frame].T_world_frame.translation();
+  for (const CameraRow& r : ReadCamerasCsv(cameras_csv)) {
+    if (r.status != "visual" || !r.crs) continue;
+    if (r.frame < 0 || r.frame >= static_cast<int64_t>(truth.poses.size())) continue;
+    const Eigen::Vector3d t = truth.poses[r.frame].T_world_frame.translation();
     Geodetic g;
     truth_enu.Reverse(t.x(), t.y(), t.z(), g.lat_deg, g.lon_deg, g.h_ellipsoid_m);
-    const Eigen::Vector3d ours(std::stod(f[2]), std::stod(f[3]), std::stod(f[4]));
-    out.push_back({ours, ours - crs.Forward(g)});
+    out.push_back({*r.crs, *r.crs - crs.Forward(g)});
   }
   return out;
 }
@@ -287,7 +276,7 @@ void WriteErrorImage(const fs::path& path, const cv::Mat& ours, const cv::Mat& t
 }  // namespace
 
 nlohmann::json HeightErrors::ToJson() const {
-  return {{"cells", cells},         {"rmse_m", rmse_m},       {"mean_m", mean_m},         {"median_abs_m", median_abs_m},
+  return {{"cells", cells},         {"rmse_m", rmse_m},       {"mean_m", mean_m},        {"median_abs_m", median_abs_m},
           {"p95_abs_m", p95_abs_m}, {"max_abs_m", max_abs_m}, {"within_5mm", within_5mm}};
 }
 
@@ -353,11 +342,12 @@ SurfaceEvaluation EvaluateSurface(const fs::path& survey_dir, const fs::path& ou
 }
 
 std::string SurfaceEvaluation::Table() const {
-  std::string s = fmt::format("surface vs truth/road_surface.ply ({}; cell {:.0f} mm)\n", epsg.empty() ? "local ENU" : epsg,
-                              cell_m * 1000);
+  std::string s = fmt::format("surface vs truth/road_surface.ply ({}; cell {:.0f} mm)\n",
+                              epsg.empty() ? "local ENU" : epsg, cell_m * 1000);
   const auto row = [](const char* name, const HeightErrors& h) {
     return fmt::format(
-        "  {:<38} RMSE {:6.2f} mm  mean {:+6.2f}  median |e| {:5.2f}  p95 {:6.2f}  max {:6.1f} mm; {:5.1f} % within 5 mm "
+        "  {:<38} RMSE {:6.2f} mm  mean {:+6.2f}  median |e| {:5.2f}  p95 {:6.2f}  max {:6.1f} mm; {:5.1f} % within 5 "
+        "mm "
         "({} cells)\n",
         name, h.rmse_m * 1000, h.mean_m * 1000, h.median_abs_m * 1000, h.p95_abs_m * 1000, h.max_abs_m * 1000,
         h.within_5mm * 100, h.cells);
@@ -395,7 +385,8 @@ nlohmann::json SurfaceEvaluation::ToJson() const {
           {"filled_fraction", filled_fraction},
           {"largest_hole_m", largest_hole_m},
           {"holes_over_5cm", holes_over_5cm},
-          {"holes", [&] {
+          {"holes",
+           [&] {
              nlohmann::json h = nlohmann::json::array();
              for (const Eigen::Vector3d& x : holes) h.push_back({{"x", x.x()}, {"y", x.y()}, {"width_m", x.z()}});
              return h;

@@ -73,6 +73,9 @@ std::vector<CameraRow> ReadCamerasCsv(const std::filesystem::path& path) {
       r.lon_deg = Parse<double>(c[6], p, n, "lon_deg");
       r.h_ellipsoid_m = Parse<double>(c[7], p, n, "h_ellipsoid_m");
     }
+    if (!c[8].text.empty())
+      r.rpy_deg = Eigen::Vector3d(Parse<double>(c[8], p, n, "roll_deg"), Parse<double>(c[9], p, n, "pitch_deg"),
+                                  Parse<double>(c[10], p, n, "yaw_deg"));
     rows.push_back(std::move(r));
   }
   return rows;

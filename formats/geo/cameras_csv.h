@@ -20,6 +20,8 @@ struct CameraRow {
   /// Easting, northing, height in the survey's CRS; absent for skipped frames.
   std::optional<Eigen::Vector3d> crs;
   double lat_deg = 0, lon_deg = 0, h_ellipsoid_m = 0;  ///< set with crs
+  /// Roll, pitch, yaw of the body in NED, degrees; absent when the row has none.
+  std::optional<Eigen::Vector3d> rpy_deg;
 };
 
 /// Reads every row. Throws InputError naming the file, line and column on a missing header, a
