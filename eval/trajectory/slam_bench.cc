@@ -11,6 +11,7 @@
 
 #include "sim/simulate.h"
 #include "stages/slam/slam_regime.h"
+#include "eval/trajectory/kitti00_ba.h"
 #include "eval/trajectory/slam_datasets.h"
 
 namespace {
@@ -132,6 +133,9 @@ int main(int argc, char** argv) {
                                                  euroc / "open_vins_gt/ov_data/euroc_mav/V1_01_easy.txt", opt);
         std::cout << e.Summary("EuRoC V1_01 micro") << "\n" << SelfCalibration(e) << "\n";
       }
+      // The global BA on real KITTI 00 stereo measurements against KITTI's ground truth (kitti00_ba.h).
+      if (fs::exists(fs::path(data) / "kitti_euroc_trajectories/gtsam/examples/Data") && !only_kitti)
+        std::cout << rs::RunKitti00StereoVoBa(data, opt.global_ba_iterations).Summary() << "\n";
     }
     if (sim) {
       if (!fs::exists(sim_dir / "truth" / "trajectory.tum")) {
