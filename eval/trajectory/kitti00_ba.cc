@@ -8,6 +8,7 @@
 
 #include <fmt/format.h>
 
+#include "eval/trajectory/slam_datasets.h"
 #include "eval/trajectory/trajectory_metrics.h"
 #include "formats/input_error.h"
 #include "formats/trajectory/kitti_poses.h"
@@ -48,26 +49,20 @@ std::ifstream Open(const fs::path& p) {
   return in;
 }
 
-// Median |projection - (u_left, v)| over every observation at the map's current poses and points.
-double ReprojectionMedian(const SlamMap& map, const RectifiedStereo& cam) {
-  std::vector<double> e;
-  for (const MapPoint& p : map.points) {
-    if (p.bad) continue;
-    for (const auto& [k, f] : p.observations) {
-      const Eigen::Vector3d pc = map.keyframes[k].T_cam_world * p.p_world;
-      if (pc.z() <= 0) continue;
-      const cv::Point2f& kp = map.keyframes[k].features.keypoints[f].pt;
-      e.push_back(
-          std::hypot(cam.f_px * pc.x() / pc.z() + cam.cx_px - kp.x, cam.f_px * pc.y() / pc.z() + cam.cy_px - kp.y));
-    }
+// Calls row(numbers, line) for every non-blank line of `path`, each of `count` numbers.
+template <typename Row>
+void ForEachRow(const fs::path& path, int count, Row row) {
+  std::ifstream in = Open(path);
+  std::string line;
+  for (int64_t n = 1; std::getline(in, line); ++n) {
+    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+    std::istringstream ss(line);
+    row(Numbers(ss, count, path.string(), n), n);
   }
-  if (e.empty()) return 0;
-  std::nth_element(e.begin(), e.begin() + static_cast<std::ptrdiff_t>(e.size() / 2), e.end());
-  return e[e.size() / 2];
 }
 
 // The problem as a SlamMap: one keyframe per pose, one level-0 feature per observation, one point per landmark.
-SlamMap MapOf(const StereoVoProblem& pb, int* landmarks) {
+SlamMap MapOf(const StereoVoProblem& pb) {
   SlamMap map;
   std::vector<std::vector<const StereoVoObservation*>> by_pose(pb.T_world_cam.size());
   for (const StereoVoObservation& o : pb.observations) by_pose[static_cast<size_t>(o.pose)].push_back(&o);
@@ -96,22 +91,49 @@ SlamMap MapOf(const StereoVoProblem& pb, int* landmarks) {
       else
         map.AddObservation(it->second, static_cast<int>(k), static_cast<int>(i));
     }
-  *landmarks = static_cast<int>(point_of.size());
   return map;
+}
+
+// The poses of a map's keyframes (camera-to-world), keyframe i = pose i.
+std::vector<Eigen::Isometry3d> PosesOf(const SlamMap& map) {
+  std::vector<Eigen::Isometry3d> out;
+  for (const Keyframe& kf : map.keyframes) out.push_back(kf.T_cam_world.inverse());
+  return out;
+}
+
+Trajectory TrajectoryOf(const std::vector<Eigen::Isometry3d>& poses, size_t count, const std::string& source) {
+  Trajectory t;
+  t.source = source;
+  t.has_times = false;
+  for (size_t i = 0; i < count; ++i) t.poses.push_back({static_cast<int64_t>(i), poses[i]});
+  return t;
 }
 
 // ATE (SE(3)) and the last pose's error with the first poses coinciding (both start at the identity).
 std::pair<double, double> Score(const std::vector<Eigen::Isometry3d>& est, const std::vector<Eigen::Isometry3d>& gt) {
-  PosePairs pairs;
-  for (size_t i = 0; i < est.size(); ++i) {
-    pairs.t_ns.push_back(static_cast<int64_t>(i));
-    pairs.est_index.push_back(i);
-    pairs.gt_index.push_back(i);
-    pairs.est.push_back(est[i]);
-    pairs.gt.push_back(gt[i]);
-  }
-  const double end = (est.back().translation() - gt[est.size() - 1].translation()).norm();
+  const PosePairs pairs =
+      AssociateByIndex(TrajectoryOf(est, est.size(), "adjusted poses"), TrajectoryOf(gt, est.size(), "ground truth"));
+  const double end = (pairs.est.back().translation() - pairs.gt.back().translation()).norm();
   return {ComputeAte(pairs, TrajectoryAlignment::kSE3).translation_m.rmse, end};
+}
+
+// The problem adjusted from its initial poses with offset_px added to every disparity.
+struct Adjusted {
+  SlamMap map;
+  BundleAdjustSummary summary;
+  double seconds = 0;
+};
+
+Adjusted Adjust(const StereoVoProblem& pb, int iterations, double offset_px) {
+  Adjusted a;
+  a.map = MapOf(pb);
+  if (offset_px != 0)
+    for (Keyframe& kf : a.map.keyframes) AddDisparityOffset(&kf.features, pb.camera, offset_px);
+  std::vector<RefinedFrame> no_frames;
+  const auto t0 = std::chrono::steady_clock::now();
+  a.summary = GlobalBundleAdjustWithFrames(&a.map, &no_frames, pb.camera, ScalePyramid(1, 1.2), iterations, {0}, 0);
+  a.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return a;
 }
 
 }  // namespace
@@ -129,25 +151,13 @@ StereoVoProblem ReadGtsamStereoVo(const fs::path& calibration, const fs::path& p
       throw InputError(InputLocation::Line(calibration.string(), 1), "fx != fy or skew != 0: not a rectified pair");
     pb.camera = {v[0], v[3], v[4], v[5], width, height};
   }
-  {
-    std::ifstream in = Open(poses);
-    std::string line;
-    for (int64_t n = 1; std::getline(in, line); ++n) {
-      if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
-      std::istringstream ss(line);
-      const std::vector<double> v = Numbers(ss, 17, poses.string(), n);
-      if (v[0] != static_cast<double>(pb.T_world_cam.size()))
-        throw InputError(InputLocation::Line(poses.string(), n),
-                         fmt::format("pose id {} out of order (expected {})", v[0], pb.T_world_cam.size()));
-      pb.T_world_cam.push_back(PoseOf(v, 1, poses.string(), n));
-    }
-  }
-  std::ifstream in = Open(factors);
-  std::string line;
-  for (int64_t n = 1; std::getline(in, line); ++n) {
-    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
-    std::istringstream ss(line);
-    const std::vector<double> v = Numbers(ss, 8, factors.string(), n);
+  ForEachRow(poses, 17, [&](const std::vector<double>& v, int64_t n) {
+    if (v[0] != static_cast<double>(pb.T_world_cam.size()))
+      throw InputError(InputLocation::Line(poses.string(), n),
+                       fmt::format("pose id {} out of order (expected {})", v[0], pb.T_world_cam.size()));
+    pb.T_world_cam.push_back(PoseOf(v, 1, poses.string(), n));
+  });
+  ForEachRow(factors, 8, [&](const std::vector<double>& v, int64_t n) {
     StereoVoObservation o;
     o.pose = static_cast<int>(v[0]);
     o.landmark = static_cast<int>(v[1]);
@@ -158,7 +168,7 @@ StereoVoProblem ReadGtsamStereoVo(const fs::path& calibration, const fs::path& p
     o.v = v[4];
     o.p_cam = Eigen::Vector3d(v[5], v[6], v[7]);
     pb.observations.push_back(o);
-  }
+  });
   return pb;
 }
 
@@ -171,34 +181,24 @@ StereoVoBaReport AdjustAndScore(const StereoVoProblem& pb, const std::vector<Eig
   r.observations = static_cast<int>(pb.observations.size());
   for (size_t i = 1; i < pb.T_world_cam.size(); ++i) r.path_m += (gt[i].translation() - gt[i - 1].translation()).norm();
   std::tie(r.ate_before_m, r.end_error_before_m) = Score(pb.T_world_cam, gt);
-  auto adjust = [&](double offset_px, double* ate, double* end, double* reproj) {
-    SlamMap map = MapOf(pb, &r.landmarks);
-    for (Keyframe& kf : map.keyframes)
-      for (float& ur : kf.features.u_right) ur = static_cast<float>(ur - offset_px);
-    if (offset_px == 0) r.reproj_median_before_px = ReprojectionMedian(map, pb.camera);
-    std::vector<RefinedFrame> no_frames;
-    const auto t0 = std::chrono::steady_clock::now();
-    const BundleAdjustSummary s =
-        GlobalBundleAdjustWithFrames(&map, &no_frames, pb.camera, ScalePyramid(1, 1.2), iterations, {0}, 0);
-    r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    r.outliers_removed = s.outliers_removed;
-    std::vector<Eigen::Isometry3d> after;
-    for (const Keyframe& kf : map.keyframes) after.push_back(kf.T_cam_world.inverse());
-    std::tie(*ate, *end) = Score(after, gt);
-    *reproj = ReprojectionMedian(map, pb.camera);
-    if (offset_px == 0) {
-      std::vector<int> kfs;
-      for (const Keyframe& kf : map.keyframes) kfs.push_back(kf.id);
-      int pairs = 0;
-      const std::vector<DisparityPairSample> samples = CollectDisparitySamples(map, pb.camera, kfs, &pairs);
-      const DisparityOffsetEstimate e = EstimateDisparityOffset(samples, pairs, pb.camera.bf());
-      r.offset_px = e.offset_px;
-      r.offset_sigma_px = e.sigma_px;
-      r.offset_samples = e.samples;
-    }
-  };
-  adjust(0, &r.ate_after_m, &r.end_error_after_m, &r.reproj_median_after_px);
-  adjust(r.offset_px, &r.ate_calibrated_m, &r.end_error_calibrated_m, &r.reproj_median_calibrated_px);
+  const SlamMap initial = MapOf(pb);
+  r.landmarks = static_cast<int>(initial.points.size());
+  r.reproj_median_before_px = LevelZeroResiduals(initial, pb.camera).median_px;
+
+  const Adjusted plain = Adjust(pb, iterations, 0);
+  r.outliers_removed = plain.summary.outliers_removed;
+  r.seconds = plain.seconds;
+  std::tie(r.ate_after_m, r.end_error_after_m) = Score(PosesOf(plain.map), gt);
+  r.reproj_median_after_px = LevelZeroResiduals(plain.map, pb.camera).median_px;
+
+  // As the SLAM's self-calibration: the offset the adjusted map implies, then the adjustment with it.
+  const DisparityOffsetEstimate e = EstimateMapDisparityOffset(plain.map, pb.camera);
+  r.offset_px = e.offset_px;
+  r.offset_sigma_px = e.sigma_px;
+  r.offset_samples = e.samples;
+  const Adjusted calibrated = Adjust(pb, iterations, r.offset_px);
+  std::tie(r.ate_calibrated_m, r.end_error_calibrated_m) = Score(PosesOf(calibrated.map), gt);
+  r.reproj_median_calibrated_px = LevelZeroResiduals(calibrated.map, pb.camera).median_px;
   return r;
 }
 

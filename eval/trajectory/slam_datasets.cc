@@ -55,34 +55,11 @@ double PathLength(const PosePairs& pairs) {
   return len;
 }
 
-// Level-0 reprojection residuals of every live map point in every keyframe observing it.
 void MeasureResiduals(const StereoCalibration& calib, SlamRunReport* rep) {
-  const RectifiedStereo cam = RectifiedStereoOf(calib);
-  std::vector<double> uv, ur;
-  const SlamMap& m = rep->result.map;
-  for (const MapPoint& p : m.points) {
-    if (p.bad) continue;
-    for (const auto& [k, f] : p.observations) {
-      const Keyframe& kf = m.keyframes[k];
-      const cv::KeyPoint& kp = kf.features.keypoints[f];
-      if (kf.bad || kp.octave != 0) continue;
-      const Eigen::Vector3d pc = kf.T_cam_world * p.p_world;
-      if (pc.z() <= 0) continue;
-      const double u = cam.f_px * pc.x() / pc.z() + cam.cx_px, v = cam.f_px * pc.y() / pc.z() + cam.cy_px;
-      uv.push_back(std::hypot(kp.pt.x - u, kp.pt.y - v));
-      if (kf.features.u_right[f] >= 0)
-        ur.push_back(std::abs(kf.features.u_right[f] - (u - cam.f_px * cam.baseline_m / pc.z())));
-    }
-  }
-  auto quantile = [](std::vector<double> v, double q) {
-    if (v.empty()) return 0.0;
-    const size_t i = std::min(v.size() - 1, static_cast<size_t>(q * v.size()));
-    std::nth_element(v.begin(), v.begin() + i, v.end());
-    return v[i];
-  };
-  rep->reproj_median_px = quantile(uv, 0.5);
-  rep->reproj_p90_px = quantile(uv, 0.9);
-  rep->reproj_right_median_px = quantile(ur, 0.5);
+  const MapResiduals r = LevelZeroResiduals(rep->result.map, RectifiedStereoOf(calib));
+  rep->reproj_median_px = r.median_px;
+  rep->reproj_p90_px = r.p90_px;
+  rep->reproj_right_median_px = r.right_median_px;
 }
 
 // Runs SLAM over `source` frames; `rectify` (may be null) maps raw pairs to rectified ones.
@@ -186,6 +163,31 @@ double Median(std::vector<double> v) {
 }
 
 }  // namespace
+
+MapResiduals LevelZeroResiduals(const SlamMap& m, const RectifiedStereo& cam) {
+  std::vector<double> uv, ur;
+  for (const MapPoint& p : m.points) {
+    if (p.bad) continue;
+    for (const auto& [k, f] : p.observations) {
+      const Keyframe& kf = m.keyframes[k];
+      const cv::KeyPoint& kp = kf.features.keypoints[f];
+      if (kf.bad || kp.octave != 0) continue;
+      const Eigen::Vector3d pc = kf.T_cam_world * p.p_world;
+      if (pc.z() <= 0) continue;
+      const double u = cam.f_px * pc.x() / pc.z() + cam.cx_px, v = cam.f_px * pc.y() / pc.z() + cam.cy_px;
+      uv.push_back(std::hypot(kp.pt.x - u, kp.pt.y - v));
+      if (kf.features.u_right[f] >= 0)
+        ur.push_back(std::abs(kf.features.u_right[f] - (u - cam.f_px * cam.baseline_m / pc.z())));
+    }
+  }
+  auto quantile = [](std::vector<double> v, double q) {
+    if (v.empty()) return 0.0;
+    const size_t i = std::min(v.size() - 1, static_cast<size_t>(q * v.size()));
+    std::nth_element(v.begin(), v.begin() + i, v.end());
+    return v[i];
+  };
+  return {quantile(uv, 0.5), quantile(uv, 0.9), quantile(ur, 0.5)};
+}
 
 LidarDisparityCheck CheckDisparityAgainstLidar(const std::filesystem::path& drive, const SlamOptions& options) {
   const StereoSource source = OpenStereoSource(drive, "kitti-raw");

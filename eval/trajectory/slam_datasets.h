@@ -37,6 +37,13 @@ struct SlamRunReport {
   std::string Summary(const std::string& name) const;
 };
 
+/// Level-0 reprojection residuals of every live map point in every good keyframe observing it:
+/// median and 90th percentile of |(du, dv)| and median |du_right|, px (0 when there are none).
+struct MapResiduals {
+  double median_px = 0, p90_px = 0, right_median_px = 0;
+};
+MapResiduals LevelZeroResiduals(const SlamMap& map, const RectifiedStereo& camera);
+
 /// KITTI odometry layout with poses.txt (compared pose i to frame i). max_frames < 0: all.
 SlamRunReport RunKittiOdometry(const std::filesystem::path& folder, const SlamOptions& options, int max_frames = -1);
 /// EuRoC/ASL mav0 folder: raw pairs rectified via rs_stereo_io; truth = a TUM body trajectory,

@@ -145,4 +145,29 @@ std::vector<DisparityPairSample> CollectDisparitySamples(const SlamMap& map, con
   return out;
 }
 
+DisparityOffsetEstimate EstimateMapDisparityOffset(const SlamMap& map, const RectifiedStereo& camera) {
+  std::vector<int> kfs;
+  for (const Keyframe& kf : map.keyframes)
+    if (!kf.bad) kfs.push_back(kf.id);
+  int pairs = 0;
+  const std::vector<DisparityPairSample> samples = CollectDisparitySamples(map, camera, kfs, &pairs);
+  return EstimateDisparityOffset(samples, pairs, camera.bf());
+}
+
+bool KeepsStereoMatch(double u, double u_right) { return u - u_right > 0.05 && u_right >= 0; }
+
+void AddDisparityOffset(StereoFeatures* f, const RectifiedStereo& camera, double offset_px) {
+  for (size_t i = 0; i < f->size(); ++i) {
+    if (f->u_right[i] < 0) continue;
+    const double ur = f->u_right[i] - offset_px, d = f->keypoints[i].pt.x - ur;
+    if (KeepsStereoMatch(f->keypoints[i].pt.x, ur)) {
+      f->u_right[i] = static_cast<float>(ur);
+      f->depth_m[i] = static_cast<float>(camera.bf() / d);
+    } else {
+      f->u_right[i] = -1.f;
+      f->depth_m[i] = -1.f;
+    }
+  }
+}
+
 }  // namespace rs

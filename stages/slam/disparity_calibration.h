@@ -45,4 +45,15 @@ DisparityOffsetEstimate EstimateDisparityOffset(const std::vector<DisparityPairS
 std::vector<DisparityPairSample> CollectDisparitySamples(const SlamMap& map, const RectifiedStereo& camera,
                                                          const std::vector<int>& keyframes, int* num_pairs);
 
+/// EstimateDisparityOffset over every good keyframe of the map, the samples from CollectDisparitySamples.
+DisparityOffsetEstimate EstimateMapDisparityOffset(const SlamMap& map, const RectifiedStereo& camera);
+
+/// A stereo match whose right position u_right leaves a disparity of 0.05 px or less, or falls off the
+/// image, is no match (as MatchStereo drops it).
+bool KeepsStereoMatch(double u, double u_right);
+
+/// Adds offset_px to every stereo match's disparity (u_right moves by -offset_px, the depth follows);
+/// matches that KeepsStereoMatch rejects afterwards lose their stereo (u_right and depth -1).
+void AddDisparityOffset(StereoFeatures* features, const RectifiedStereo& camera, double offset_px);
+
 }  // namespace rs

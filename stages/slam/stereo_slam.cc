@@ -41,12 +41,7 @@ using stereo_slam_internal::Seconds;
 // tracked map before loop closing (shorter windows scatter beyond their error); SlamStatistics, and
 // applied by ApplyDisparitySelfCalibration when certain.
 void StereoSlam::Impl::EstimateDisparityOffsetOfMap() {
-  std::vector<int> kfs;
-  for (const Keyframe& kf : map.keyframes)
-    if (!kf.bad) kfs.push_back(kf.id);
-  int pairs = 0;
-  const std::vector<DisparityPairSample> samples = CollectDisparitySamples(map, cam, kfs, &pairs);
-  const DisparityOffsetEstimate e = EstimateDisparityOffset(samples, pairs, cam.bf());
+  const DisparityOffsetEstimate e = EstimateMapDisparityOffset(map, cam);
   stats.disparity_offset_px = e.offset_px;
   stats.disparity_offset_sigma_px = e.sigma_px;
   stats.disparity_offset_samples = e.samples;

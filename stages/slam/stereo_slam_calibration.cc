@@ -8,6 +8,7 @@
 #include <cmath>
 #include <vector>
 
+#include "stages/slam/disparity_calibration.h"
 #include "stages/slam/stereo_slam_internal.h"
 
 namespace rs {
@@ -40,37 +41,20 @@ double ForwardShare(const SlamMap& map) {
   return share[share.size() / 2];
 }
 
-// A stereo match whose shifted right position u_right leaves a disparity of 0.05 px or less, or
-// falls off the image, is dropped (as MatchStereo drops it).
-bool KeepsStereo(double u, double u_right) { return u - u_right > 0.05 && u_right >= 0; }
 }  // namespace
-
-void StereoSlam::Impl::AddDisparityOffset(StereoFeatures* f, double offset_px) const {
-  for (size_t i = 0; i < f->size(); ++i) {
-    if (f->u_right[i] < 0) continue;
-    const double ur = f->u_right[i] - offset_px, d = f->keypoints[i].pt.x - ur;
-    if (KeepsStereo(f->keypoints[i].pt.x, ur)) {
-      f->u_right[i] = static_cast<float>(ur);
-      f->depth_m[i] = static_cast<float>(cam.bf() / d);
-    } else {
-      f->u_right[i] = -1.f;
-      f->depth_m[i] = -1.f;
-    }
-  }
-}
 
 void StereoSlam::Impl::ApplyDisparitySelfCalibration() {
   const double o = stats.disparity_offset_px, sigma = stats.disparity_offset_sigma_px;
   if (stats.disparity_offset_samples < kMinSamples || !(sigma > 0) || sigma > kMaxSigmaPx ||
       std::abs(o) < kMinSignificance * sigma || ForwardShare(map) < kMinForwardShare)
     return;
-  for (Keyframe& kf : map.keyframes) AddDisparityOffset(&kf.features, o);
+  for (Keyframe& kf : map.keyframes) AddDisparityOffset(&kf.features, cam, o);
   // The tracked frames' matches that join the global BA (global_refinement.h).
   for (FrameRecord& r : records)
     for (FrameObservation& ob : r.observations) {
       if (ob.u_right < 0) continue;
       const double ur = ob.u_right - o;
-      ob.u_right = KeepsStereo(ob.u, ur) ? static_cast<float>(ur) : -1.f;
+      ob.u_right = KeepsStereoMatch(ob.u, ur) ? static_cast<float>(ur) : -1.f;
     }
   stats.disparity_offset_applied_px = o;
 }

@@ -115,7 +115,6 @@ struct StereoSlam::Impl {
   void LocalMapping(int kf);
 
   // Disparity self-calibration (stereo_slam_calibration.cc).
-  void AddDisparityOffset(StereoFeatures* f, double offset_px) const;
   void ApplyDisparitySelfCalibration();
 
   // Non-key frames re-solved against the final map (stereo_slam_frames.cc).
