@@ -79,11 +79,20 @@ void AngleAxisWithLeftJacobian(const Eigen::Vector3d& w, Eigen::Matrix3d* R, Eig
   }
 }
 
+PoseRotation::PoseRotation(const double* pose) {
+  AngleAxisWithLeftJacobian(Eigen::Map<const Eigen::Vector3d>(pose), &R, &Jl);
+}
+
 void EvaluateReprojection(const ReprojectionResidual& r, const double* pose, const double* point, double* residual,
                           double* J_pose, double* J_point) {
-  const Eigen::Map<const Eigen::Vector3d> w(pose), t(pose + 3), x(point);
-  Eigen::Matrix3d R, Jl;  // rotation and its left Jacobian: d(R(w) x)/dw = -[R x]_x Jl(w)
-  AngleAxisWithLeftJacobian(w, &R, &Jl);
+  EvaluateReprojection(r, PoseRotation(pose), pose + 3, point, residual, J_pose, J_point);
+}
+
+void EvaluateReprojection(const ReprojectionResidual& r, const PoseRotation& rotation, const double* translation,
+                          const double* point, double* residual, double* J_pose, double* J_point) {
+  // Rotation and its left Jacobian: d(R(w) x)/dw = -[R x]_x Jl(w).
+  const Eigen::Matrix3d &R = rotation.R, &Jl = rotation.Jl;
+  const Eigen::Map<const Eigen::Vector3d> t(translation), x(point);
   const Eigen::Vector3d Rx = R * x, pc = Rx + t;
   const double iz = 1.0 / pc.z(), s = r.sqrt_info;
   const bool stereo = r.u_right >= 0;

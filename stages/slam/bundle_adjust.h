@@ -35,6 +35,17 @@ void AngleAxisWithLeftJacobian(const Eigen::Vector3d& w, Eigen::Matrix3d* R, Eig
 void EvaluateReprojection(const ReprojectionResidual& r, const double* pose, const double* point, double* residual,
                           double* J_pose, double* J_point);
 
+/// A pose's rotation R(w) and left Jacobian Jl(w), computed once for all of its observations.
+struct PoseRotation {
+  Eigen::Matrix3d R, Jl;
+  explicit PoseRotation(const double* pose);
+};
+
+/// EvaluateReprojection with the pose's rotation given (t = the pose's translation): the same
+/// arithmetic, so the same bits, without the angle-axis trigonometry per observation.
+void EvaluateReprojection(const ReprojectionResidual& r, const PoseRotation& rotation, const double* t,
+                          const double* point, double* residual, double* J_pose, double* J_point);
+
 /// Relative-pose residual of a pose-graph edge (6 residuals: rotation angle-axis, translation),
 /// poses = (angle-axis[3], t[3]) of T_world_kf.
 struct RelativePoseResidual {

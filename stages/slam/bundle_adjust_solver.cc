@@ -45,10 +45,12 @@ class Solver {
   }
 
   double Cost() const {
+    const std::vector<PoseRotation> rotations = Rotations();
     double c = 0;
     for (const auto& o : p_.observations) {
       double r[3];
-      EvaluateReprojection(o.r, p_.poses[o.pose].data(), p_.points[o.point].data(), r, nullptr, nullptr);
+      EvaluateReprojection(o.r, rotations[o.pose], p_.poses[o.pose].data() + 3, p_.points[o.point].data(), r, nullptr,
+                           nullptr);
       c += Rho(r[0] * r[0] + r[1] * r[1] + r[2] * r[2], o.huber);
     }
     return 0.5 * c;
@@ -60,12 +62,14 @@ class Solver {
     L->V.assign(p_.points.size(), Eigen::Matrix3d::Zero());
     L->gp.assign(p_.points.size(), Eigen::Vector3d::Zero());
     L->W.resize(p_.observations.size());
+    const std::vector<PoseRotation> rotations = Rotations();
     for (size_t i = 0; i < p_.observations.size(); ++i) {
       const auto& o = p_.observations[i];
       Eigen::Vector3d r;
       Mat36 Jc;
       Mat33r Jp;
-      EvaluateReprojection(o.r, p_.poses[o.pose].data(), p_.points[o.point].data(), r.data(), Jc.data(), Jp.data());
+      EvaluateReprojection(o.r, rotations[o.pose], p_.poses[o.pose].data() + 3, p_.points[o.point].data(), r.data(),
+                           Jc.data(), Jp.data());
       const double w = Rho1(r.squaredNorm(), o.huber);
       L->V[o.point].noalias() += w * Jp.transpose() * Jp;
       L->gp[o.point].noalias() += w * Jp.transpose() * r;
@@ -168,6 +172,13 @@ class Solver {
   }
 
  private:
+  std::vector<PoseRotation> Rotations() const {
+    std::vector<PoseRotation> rotations;
+    rotations.reserve(p_.poses.size());
+    for (const auto& pose : p_.poses) rotations.emplace_back(pose.data());
+    return rotations;
+  }
+
   SmallBundleProblem& p_;
   std::vector<int> slot_;  // pose -> free pose index, -1 fixed
   int free_ = 0;

@@ -30,17 +30,6 @@ int ScalePyramid::PredictLevel(double distance_m, double max_distance_m) const {
   return std::clamp(level, 0, levels() - 1);
 }
 
-int DescriptorDistance(const uint8_t* a, const uint8_t* b) {
-  int d = 0;
-  for (int i = 0; i < 32; i += 8) {
-    uint64_t x, y;
-    std::memcpy(&x, a + i, 8);
-    std::memcpy(&y, b + i, 8);
-    d += std::popcount(x ^ y);
-  }
-  return d;
-}
-
 void StereoFeatures::BuildGrid(int width, int height) {
   grid_cols = std::max(1, static_cast<int>(std::ceil(width / kGridCellPx)));
   grid_rows = std::max(1, static_cast<int>(std::ceil(height / kGridCellPx)));

@@ -3,7 +3,9 @@
 // descriptors) spread over the image by a grid, then matched along rectified rows of the
 // right image with sub-pixel (SAD + parabola) refinement, giving a depth per feature.
 
+#include <bit>
 #include <cstdint>
+#include <cstring>
 #include <vector>
 
 #include <Eigen/Core>
@@ -64,7 +66,16 @@ StereoFeatures MatchStereo(const cv::Mat& left, const cv::Mat& right, OrbFeature
 StereoFeatures ExtractStereoFeatures(const cv::Mat& left, const cv::Mat& right, const RectifiedStereo& camera,
                                      const SlamOptions& options, const ScalePyramid& pyramid);
 
-/// Hamming distance of two 32-byte ORB descriptors.
-int DescriptorDistance(const uint8_t* a, const uint8_t* b);
+/// Hamming distance of two 32-byte ORB descriptors (inline: the matchers' innermost loops call it).
+inline int DescriptorDistance(const uint8_t* a, const uint8_t* b) {
+  int d = 0;
+  for (int i = 0; i < 32; i += 8) {
+    uint64_t x, y;
+    std::memcpy(&x, a + i, 8);
+    std::memcpy(&y, b + i, 8);
+    d += std::popcount(x ^ y);
+  }
+  return d;
+}
 
 }  // namespace rs
