@@ -10,7 +10,7 @@ packages=(
   libgeographiclib-dev libopenmesh-dev
   libproj-dev proj-data proj-bin
   nlohmann-json3-dev libvalijson-dev libcli11-dev
-  libspdlog-dev libfmt-dev libtbb-dev libxxhash-dev
+  libspdlog-dev libfmt-dev libtbb-dev libxxhash-dev libhwy-dev
   libpugixml-dev libyaml-cpp-dev
   libgtest-dev libgmock-dev
   clang libclang-rt-14-dev

@@ -10,6 +10,8 @@
 #include <opencv2/features2d.hpp>
 #include <tbb/parallel_invoke.h>
 
+#include "stages/slam/orb_detector.h"
+
 namespace rs {
 
 ScalePyramid::ScalePyramid(int levels, double factor) {
@@ -70,8 +72,10 @@ void ExtractOrb(const cv::Mat& gray, const SlamOptions& options, std::vector<cv:
   cv::Ptr<cv::ORB> orb =
       cv::ORB::create(options.features * 2, static_cast<float>(options.scale_factor), options.pyramid_levels, 19, 0, 2,
                       cv::ORB::HARRIS_SCORE, 31, options.fast_threshold);
+  // DetectOrbCorners is orb->detect bit for bit (orb_detector_test.cc), with a vectorised FAST.
   std::vector<cv::KeyPoint> all;
-  orb->detect(gray, all);
+  DetectOrbCorners(gray, options.features * 2, static_cast<float>(options.scale_factor), options.pyramid_levels, 19, 31,
+                   options.fast_threshold, &all);
   const std::vector<cv::KeyPoint> detected = all;  // cv::ORB's own coordinates, for its descriptors below
   // cv::ORB maps a level-k corner to level 0 as x_k * scale_k, but its pyramid is resized with the
   // pixel-centre convention, x_0 = (x_k + 0.5) * W_0 / W_k - 0.5: without this the coordinates of
