@@ -22,7 +22,8 @@
 
 namespace {
 
-constexpr int kFeatures = 4000, kLevels = 8, kEdge = 19, kPatch = 31, kThreshold = 12;
+// Kept features per image in the forward (car) regime; ExtractOrb detects twice as many.
+constexpr int kFeatures = 2000, kLevels = 8, kEdge = 19, kPatch = 31, kThreshold = 12;
 constexpr float kScale = 1.2f;
 constexpr int kRounds = 5, kCallsPerRound = 10;
 

@@ -51,6 +51,18 @@ int LivePoint(const SlamMap& map, int p) {
   return p >= 0 && !map.points[p].bad ? p : -1;
 }
 
+// Stops the solver after the current iteration once the flag is set (the flag may be null).
+class CancelCallback : public ceres::IterationCallback {
+ public:
+  explicit CancelCallback(const std::atomic<bool>* flag) : flag_(flag) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary&) override {
+    return flag_ != nullptr && flag_->load() ? ceres::SOLVER_ABORT : ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  const std::atomic<bool>* flag_;
+};
+
 // One residual of the problem: a keyframe's (kf >= 0) or a frame's observation of a point.
 struct Obs {
   int kf = -1, frame = -1, index = 0;  // keyframe id + feature, or frame + observation index
@@ -101,7 +113,10 @@ void EvaluateCentreReprojection(const ReprojectionResidual& r, double disparity_
 BundleAdjustSummary GlobalBundleAdjustWithFrames(SlamMap* map, std::vector<RefinedFrame>* frames,
                                                  const RectifiedStereo& cam, const ScalePyramid& pyramid,
                                                  int iterations, const std::vector<int>& fixed_kfs,
-                                                 double disparity_sigma_px, int min_frame_observations) {
+                                                 double disparity_sigma_px, int min_frame_observations,
+                                                 const std::atomic<bool>* cancel) {
+  auto cancelled = [cancel] { return cancel != nullptr && cancel->load(); };
+  CancelCallback stop_on_cancel(cancel);
   BundleAdjustSummary summary;
   const int nk = static_cast<int>(map->keyframes.size()), nf = static_cast<int>(frames->size());
   auto residual = [&](float u, float v, float u_right, int octave) {
@@ -171,6 +186,7 @@ BundleAdjustSummary GlobalBundleAdjustWithFrames(SlamMap* map, std::vector<Refin
     options.max_num_iterations = max_iterations;
     options.num_threads = 1;  // deterministic
     options.logging_type = ceres::SILENT;
+    if (cancel != nullptr) options.callbacks.push_back(&stop_on_cancel);
     ceres::Solver::Summary s;
     if (!obs.empty()) ceres::Solve(options, &problem, &s);
     if (!used_stereo) delete loss_stereo;
@@ -182,6 +198,7 @@ BundleAdjustSummary GlobalBundleAdjustWithFrames(SlamMap* map, std::vector<Refin
 
   std::vector<Obs> obs = collect();
   solve(obs, iterations);
+  if (cancelled()) return summary;
   // Chi-square outliers out (at the same thresholds as tracking and the local BA), then once more.
   int removed = 0;
   for (const Obs& o : obs) {

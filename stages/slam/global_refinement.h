@@ -7,6 +7,7 @@
 // point is seen from across the whole footprint, and the frames' own poses come out of the same
 // optimisation instead of being carried along with their reference keyframe.
 
+#include <atomic>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -42,9 +43,12 @@ void EvaluateCentreReprojection(const ReprojectionResidual& r, double disparity_
 /// `min_frame_observations` valid matches, and all points they observe; Huber kernel, then
 /// observations above the chi-square threshold removed (keyframe ones erased from the map, frame
 /// ones dropped) and the problem solved again with half the iterations. Deterministic (one thread).
+/// When `cancel` becomes true the solver stops after its current iteration and the function returns
+/// with map and frames in an unspecified state (for a caller that discards them).
 BundleAdjustSummary GlobalBundleAdjustWithFrames(SlamMap* map, std::vector<RefinedFrame>* frames,
                                                  const RectifiedStereo& camera, const ScalePyramid& pyramid,
                                                  int iterations, const std::vector<int>& fixed_kfs,
-                                                 double disparity_sigma_px, int min_frame_observations = 10);
+                                                 double disparity_sigma_px, int min_frame_observations = 10,
+                                                 const std::atomic<bool>* cancel = nullptr);
 
 }  // namespace rs

@@ -3,6 +3,9 @@
 // The steps themselves: stereo_slam_tracking.cc, stereo_slam_mapping.cc, stereo_slam_loss.cc.
 #include "stages/slam/stereo_slam.h"
 
+#include <atomic>
+#include <future>
+#include <optional>
 #include <stdexcept>
 #include <utility>
 #include <vector>
@@ -250,6 +253,24 @@ FrameResult StereoSlam::Impl::Track(int64_t t_ns, StereoFeatures features, const
   return result;
 }
 
+StereoSlam::Impl::GlobalBaRun StereoSlam::Impl::RunGlobalBa(SlamMap start, const std::atomic<bool>* cancel) const {
+  GlobalBaRun run;
+  run.map = std::move(start);
+  // Keyframes, and with global_ba_frames every tracked frame (global_refinement.h).
+  for (size_t i = 0; i < records.size() && opt.global_ba_frames; ++i) {
+    const FrameRecord& r = records[i];
+    if (r.observations.empty()) continue;
+    RefinedFrame f;
+    f.T_cam_world = r.T_cam_ref * run.map.keyframes[r.ref_kf].T_cam_world;
+    f.observations = r.observations;
+    run.frames.push_back(std::move(f));
+    run.record_of.push_back(i);
+  }
+  GlobalBundleAdjustWithFrames(&run.map, &run.frames, cam, pyr, opt.global_ba_iterations, {0},
+                               opt.global_ba_disparity_sigma_px, 10, cancel);
+  return run;
+}
+
 SlamResult StereoSlam::Impl::Finish() {
   if (finished) throw std::invalid_argument("StereoSlam::Finish called twice");
   finished = true;
@@ -259,28 +280,42 @@ SlamResult StereoSlam::Impl::Finish() {
   // The offset the map implies, applied to every stereo measurement before the global BA (stereo_slam_calibration.cc).
   if (opt.disparity_self_calibration) ApplyDisparitySelfCalibration();
   if (map.keyframes.size() >= 2) {
+    const bool global_ba = opt.global_ba_iterations > 0;
+    // The global BA of the map as it stands is the answer whenever no loop closes. With threads it runs on a
+    // copy alongside loop detection, kept if no loop closes, else cancelled and run again on the corrected
+    // map: the same result as one after the other, in less wall time.
+    std::atomic<bool> cancel{false};
+    std::future<GlobalBaRun> speculative;
+    if (global_ba && opt.loop_closure && opt.parallel) {
+      speculative = std::async(std::launch::async,
+                               [this, &cancel, copy = map]() mutable { return RunGlobalBa(std::move(copy), &cancel); });
+    }
     std::vector<LoopClosure> loops;
-    if (opt.loop_closure) loops = DetectAndCloseLoops(&map, cam, pyr, opt, &stats);
+    try {
+      if (opt.loop_closure) loops = DetectAndCloseLoops(&map, cam, pyr, opt, &stats);
+    } catch (...) {
+      cancel = true;
+      if (speculative.valid()) speculative.wait();
+      throw;
+    }
     out.loops = loops;
-    if (opt.global_ba_iterations > 0) {
-      // Keyframes (and with global_ba_frames every tracked frame, global_refinement.h); a refined
-      // frame's pose is kept relative to its reference keyframe, as the output below reads it.
-      std::vector<RefinedFrame> frames;
-      std::vector<size_t> record_of;
-      for (size_t i = 0; i < records.size(); ++i) {
-        FrameRecord& r = records[i];
-        if (r.observations.empty() || !opt.global_ba_frames) continue;
-        RefinedFrame f;
-        f.T_cam_world = r.T_cam_ref * map.keyframes[r.ref_kf].T_cam_world;
-        f.observations = std::move(r.observations);
-        frames.push_back(std::move(f));
-        record_of.push_back(i);
+    if (global_ba) {
+      std::optional<GlobalBaRun> run;
+      if (speculative.valid() && loops.empty()) {
+        run = speculative.get();  // rethrows what the BA threw
+      } else if (speculative.valid()) {
+        cancel = true;
+        try {
+          speculative.get();  // the loops moved the map: what that BA found (or threw) no longer applies
+        } catch (...) {}
       }
-      GlobalBundleAdjustWithFrames(&map, &frames, cam, pyr, opt.global_ba_iterations, {0},
-                                   opt.global_ba_disparity_sigma_px);
-      for (size_t j = 0; j < frames.size(); ++j) {
-        FrameRecord& r = records[record_of[j]];
-        if (frames[j].refined) r.T_cam_ref = frames[j].T_cam_world * map.keyframes[r.ref_kf].T_cam_world.inverse();
+      if (!run) run = RunGlobalBa(std::move(map), nullptr);
+      map = std::move(run->map);
+      // A refined frame's pose is kept relative to its reference keyframe, as the output below reads it.
+      for (size_t j = 0; j < run->frames.size(); ++j) {
+        FrameRecord& r = records[run->record_of[j]];
+        if (run->frames[j].refined)
+          r.T_cam_ref = run->frames[j].T_cam_world * map.keyframes[r.ref_kf].T_cam_world.inverse();
       }
     }
     if (!opt.global_ba_frames) RefineFramesOnFinalMap();

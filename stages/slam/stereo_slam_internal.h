@@ -128,6 +128,13 @@ struct StereoSlam::Impl {
   FrameResult Track(int64_t t_ns, const cv::Mat& left, const cv::Mat& right, const std::optional<PosePrior>& prior);
   FrameResult Track(int64_t t_ns, StereoFeatures features, const std::optional<PosePrior>& prior);
   SlamResult Finish();
+  // The global BA of `start` with the frames' records (copied: a cancelled run leaves them as they were).
+  struct GlobalBaRun {
+    SlamMap map;
+    std::vector<RefinedFrame> frames;
+    std::vector<size_t> record_of;  // frames[j] is records[record_of[j]]
+  };
+  GlobalBaRun RunGlobalBa(SlamMap start, const std::atomic<bool>* cancel) const;
 
   // Shared by tracking and mapping.
   Eigen::Vector3d Backproject(const StereoFeatures& f, int i) const {
