@@ -114,7 +114,8 @@ double OverlapRadius(const Keyframe& kf, const RectifiedStereo& cam) {
 }  // namespace
 
 std::vector<LoopClosure> DetectAndCloseLoops(SlamMap* map, const RectifiedStereo& cam, const ScalePyramid& pyr,
-                                             const SlamOptions& opt, SlamStatistics* stats) {
+                                             const SlamOptions& opt, SlamStatistics* stats,
+                                             std::atomic<bool>* loop_accepted) {
   std::vector<LoopClosure> loops;
   const int n = static_cast<int>(map->keyframes.size());
   if (n < 2) return loops;
@@ -183,6 +184,7 @@ std::vector<LoopClosure> DetectAndCloseLoops(SlamMap* map, const RectifiedStereo
         }
       }
       accepted.push_back({i, j, v.T_query_candidate, v.point_matches});
+      if (loop_accepted != nullptr) *loop_accepted = true;
       LoopClosure lc;
       lc.keyframe = i;
       lc.loop_keyframe = j;

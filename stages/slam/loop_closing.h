@@ -5,6 +5,7 @@
 // prior distance gate against look-alike places, SE(3) pose-graph optimisation, point correction and
 // fusion of the re-observed points (the caller then runs a global BA).
 
+#include <atomic>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -17,8 +18,11 @@ struct LoopClosure;
 struct SlamOptions;
 struct SlamStatistics;
 
-/// Detects, verifies and closes loops in `map` (poses and points corrected in place).
+/// Detects, verifies and closes loops in `map` (poses and points corrected in place). `loop_accepted`, when
+/// given, is set as soon as the first loop passes verification (the map is then going to change), so work
+/// started on the unchanged map can stop early; the map is only read until all candidates are verified.
 std::vector<LoopClosure> DetectAndCloseLoops(SlamMap* map, const RectifiedStereo& camera, const ScalePyramid& pyramid,
-                                             const SlamOptions& options, SlamStatistics* stats);
+                                             const SlamOptions& options, SlamStatistics* stats,
+                                             std::atomic<bool>* loop_accepted = nullptr);
 
 }  // namespace rs

@@ -282,8 +282,8 @@ SlamResult StereoSlam::Impl::Finish() {
   if (map.keyframes.size() >= 2) {
     const bool global_ba = opt.global_ba_iterations > 0;
     // The global BA of the map as it stands is the answer whenever no loop closes. With threads it runs on a
-    // copy alongside loop detection, kept if no loop closes, else cancelled and run again on the corrected
-    // map: the same result as one after the other, in less wall time.
+    // copy alongside loop detection, kept if no loop closes, else cancelled (at the first verified loop)
+    // and run again on the corrected map: the same result as one after the other, in less wall time.
     std::atomic<bool> cancel{false};
     std::future<GlobalBaRun> speculative;
     if (global_ba && opt.loop_closure && opt.parallel) {
@@ -292,7 +292,7 @@ SlamResult StereoSlam::Impl::Finish() {
     }
     std::vector<LoopClosure> loops;
     try {
-      if (opt.loop_closure) loops = DetectAndCloseLoops(&map, cam, pyr, opt, &stats);
+      if (opt.loop_closure) loops = DetectAndCloseLoops(&map, cam, pyr, opt, &stats, &cancel);
     } catch (...) {
       cancel = true;
       if (speculative.valid()) speculative.wait();
@@ -301,7 +301,7 @@ SlamResult StereoSlam::Impl::Finish() {
     out.loops = loops;
     if (global_ba) {
       std::optional<GlobalBaRun> run;
-      if (speculative.valid() && loops.empty()) {
+      if (speculative.valid() && loops.empty() && !cancel) {
         run = speculative.get();  // rethrows what the BA threw
       } else if (speculative.valid()) {
         cancel = true;
