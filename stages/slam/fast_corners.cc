@@ -15,14 +15,7 @@
 #include <string>
 #include <vector>
 
-// Every attainable target (SSE4, AVX2, AVX-512 and the portable fallback), also when the build's own flags
-// would make the static target the only one, so the dispatch and its tests cover all vector widths.
-#ifndef HWY_COMPILE_ALL_ATTAINABLE
-#define HWY_COMPILE_ALL_ATTAINABLE
-#endif
-#ifndef HWY_WANT_AVX3_DL  // Highway 1.0.3 needs it when the build's flags already enable AVX3_DL
-#define HWY_WANT_AVX3_DL
-#endif
+#include "stages/slam/highway_targets.h"
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "stages/slam/fast_corners.cc"
 #include <hwy/foreach_target.h>  // IWYU pragma: keep

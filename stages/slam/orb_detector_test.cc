@@ -12,12 +12,8 @@
 
 #include <gtest/gtest.h>
 // The same target set as fast_corners.cc compiles, so every dispatchable target is listed.
-#ifndef HWY_COMPILE_ALL_ATTAINABLE
-#define HWY_COMPILE_ALL_ATTAINABLE
-#endif
-#ifndef HWY_WANT_AVX3_DL  // Highway 1.0.3 needs it when the build's flags already enable AVX3_DL
-#define HWY_WANT_AVX3_DL
-#endif
+#include "stages/slam/highway_targets.h"
+// Highway after its target set.
 #include <hwy/targets.h>
 #include <opencv2/features2d.hpp>
 #include <opencv2/imgcodecs.hpp>
