@@ -6,6 +6,7 @@
 #include <utility>
 
 #include <fmt/format.h>
+#include <opencv2/core/utility.hpp>
 
 namespace rs {
 namespace {
@@ -26,10 +27,15 @@ double SlamPipelineTimes::TwoCoreWallSeconds() const {
 SlamPipeline::SlamPipeline(StereoSlam* slam, bool overlap, int lookahead)
     : slam_(slam), overlap_(overlap), lookahead_(lookahead) {
   if (lookahead < 1) throw std::invalid_argument(fmt::format("SlamPipeline: lookahead {} < 1", lookahead));
+  if (overlap_) {
+    opencv_threads_before_ = cv::getNumThreads();
+    cv::setNumThreads(1);
+  }
 }
 
 SlamPipeline::~SlamPipeline() {
   WaitForExtraction();  // the threads still reference their images (results are dropped)
+  if (overlap_) cv::setNumThreads(opencv_threads_before_);
 }
 
 std::optional<FrameResult> SlamPipeline::Push(int64_t t_ns, const cv::Mat& left, const cv::Mat& right,
