@@ -170,12 +170,14 @@ void CrackOptions::Check() const {
   Require(k_sigma > 0, "k_sigma", k_sigma, ">", "0", 0);
   Require(level_cell_px == 0 || level_cell_px >= 16, "level_cell_px", level_cell_px, ">=", "16 (or 0)", 16);
   Require(line_length_px == 0 || line_length_px >= 5, "line_length_px", line_length_px, ">=", "5 (or 0)", 5);
+  Require(line_grow_sigma > 0, "line_grow_sigma", line_grow_sigma, ">", "0", 0);
+  Require(line_grow_sigma <= k_sigma, "line_grow_sigma", line_grow_sigma, "<=", "k_sigma", k_sigma);
   Require(min_length_m > 0, "min_length_m", min_length_m, ">", "0", 0);
   Require(min_elongation >= 1, "min_elongation", min_elongation, ">=", "1", 1);
   Require(max_width_m > 0, "max_width_m", max_width_m, ">", "0", 0);
   Require(min_length_px >= 2, "min_length_px", min_length_px, ">=", "2", 2);
-  Require(ridge_max_sigma_px >= ridge_min_sigma_px, "ridge_max_sigma_px", ridge_max_sigma_px, ">=",
-          "ridge_min_sigma_px", ridge_min_sigma_px);
+  Require(ridge_max_sigma_px >= ridge_min_sigma_px, "ridge_max_sigma_px", ridge_max_sigma_px,
+          ">=", "ridge_min_sigma_px", ridge_min_sigma_px);
   if (detector == Detector::kLearned) {
     const std::filesystem::path path = ResolveCrackModelPath(model);
     if (!std::filesystem::is_regular_file(path))
@@ -238,13 +240,19 @@ const OptionTable<CrackOptions>& CrackOptions::Table() {
                "oriented line support length: response averaged along lines must stand out (0 = pixel response alone)",
                "px")
           .Min(0)
+          .Add("line_grow_sigma", &O::line_grow_sigma,
+               "hysteresis along a crack: connected pixels whose response and line support stand this many σ above "
+               "their levels join a detection (k_sigma = no growth)")
+          .Above(0)
           .Add("min_length_m", &O::min_length_m, "shortest crack", "m")
           .Above(0)
-          .Add("min_elongation", &O::min_elongation, "length / width below this is not a crack (the learned model carries its own)")
+          .Add("min_elongation", &O::min_elongation,
+               "length / width below this is not a crack (the learned model carries its own)")
           .Min(1)
           .Add("max_width_m", &O::max_width_m, "wider dark regions are not cracks", "m")
           .Above(0)
-          .Add("min_length_px", &O::min_length_px, "shortest crack without calibration (the learned model carries its own)", "px")
+          .Add("min_length_px", &O::min_length_px,
+               "shortest crack without calibration (the learned model carries its own)", "px")
           .Min(2);
   return table;
 }

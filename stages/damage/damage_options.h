@@ -97,7 +97,7 @@ struct SegmentOptions {
 
 /// Thin dark ridges (cracks) in the left image.
 struct CrackOptions {
-  bool enabled = true;    ///< look for cracks at all
+  bool enabled = true;  ///< look for cracks at all
   /// Crack evidence: kLearned = the learned model's probability (crack_net.h) at its threshold;
   /// kRidge = multi-scale Hessian valley less the gradient, each scale in robust σ of its own
   /// texture, with hysteresis (ridge.h); kBlackHat = morphological black-hat with a local level
@@ -138,6 +138,11 @@ struct CrackOptions {
   /// length (8 directions, best minus their mean) stands k_sigma above its local level, and the
   /// pixel's own response 1 σ above its level; 0 = the pixel response alone at k_sigma, px.
   int line_length_px = 21;
+  /// Hysteresis along the line (with line_length_px > 0): pixels 8-connected to a detection join
+  /// it where their response and their line support both stand this many σ above their levels.
+  /// A crack's support dips along it (a hairline narrower than a pixel, a bend between the 8
+  /// directions); half the detection level, as Canny's edges grow. k_sigma = no growth.
+  double line_grow_sigma = 2.5;
   double min_length_m = 0.15;   ///< shorter thin components are texture, not cracks, m
   double min_elongation = 6.0;  ///< skeleton length / mean width below this is a blob, not a crack
   double max_width_m = 0.05;    ///< wider dark regions are not cracks, m
@@ -196,6 +201,5 @@ struct MeasureOptions {
   void Check() const;
   static const OptionTable<MeasureOptions>& Table();
 };
-
 
 }  // namespace rs

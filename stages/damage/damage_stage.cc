@@ -56,8 +56,9 @@ StageInfo DamageStage::Info() {
   StageInfo info;
   info.name = "damage";
   // 2: cracks carry outline_cam_m (their outline on the fitted road); 3: detections.json names
-  // the crack detector (crack.detector: auto, learned, ridge, black-hat)
-  info.version = 4;
+  // the crack detector (crack.detector: auto, learned, ridge, black-hat); 5: cracks one or two
+  // pixels wide are measured (before, the outline smoothing erased them)
+  info.version = 5;
   info.doc =
       "Per frame: robust 3-D road surface (obstacles removed), depth below the road, unsupervised damage "
       "segmentation, per-damage area, depth, volume, size, crack width/length, ASTM/FHWA severity.";

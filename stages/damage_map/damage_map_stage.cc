@@ -1,5 +1,7 @@
 #include "stages/damage_map/damage_map_stage.h"
 
+#include "stages/damage_map/link_cracks.h"
+
 #include <fmt/format.h>
 
 #include <GeographicLib/LocalCartesian.hpp>
@@ -56,8 +58,8 @@ PlacedSurvey PlaceSurvey(StageContext& ctx, const GeoreferenceFile& geo, const D
     if (!fs::exists(path)) continue;  // the damage stage skipped the frame (listed in its summary)
     const FrameDetections detections = ReadFrameDetections(path);
     if (pose != pose_by_t.end())
-      s.views.push_back({f.id.value, Eigen::Affine3d(pose->second.inverse().matrix()) * slam_from_enu,
-                         detections.analysed_range_m});
+      s.views.push_back(
+          {f.id.value, Eigen::Affine3d(pose->second.inverse().matrix()) * slam_from_enu, detections.analysed_range_m});
     if (detections.detections.empty()) continue;
     ++s.frames_with_detections;
     if (pose == pose_by_t.end()) {
@@ -90,6 +92,33 @@ struct LeftOut {
   int unrepeated = 0;  ///< detection rate below min_detection_rate
 };
 
+// Fuses each group of crack views, links the pieces whose ends face each other across a short
+// gap (link_cracks.h) and appends one crack per linked set to `out`.
+void AppendLinkedCracks(const std::vector<MapObservation>& obs, const std::vector<std::vector<int>>& groups,
+                        const CrackFusionOptions& co, const DamageMapOptions& o, std::vector<MappedDamage>& out) {
+  std::vector<MappedDamage> pieces;
+  std::vector<std::vector<Eigen::Vector3d>> lines;
+  for (const auto& members : groups) {
+    pieces.push_back(FuseCrack(obs, members, co));
+    lines.push_back(pieces.back().geometry_enu);
+  }
+  const CrackLinkOptions lo{o.crack_link_gap_m, o.crack_link_angle_deg};
+  std::vector<CrackBridge> bridges;
+  for (const auto& linked : LinkCrackPieces(lines, lo, o.merge_tolerance_m, &bridges)) {
+    if (linked.size() == 1) {
+      out.push_back(std::move(pieces[linked.front()]));
+      continue;
+    }
+    std::vector<int> members;
+    for (int p : linked) members.insert(members.end(), pieces[p].members.begin(), pieces[p].members.end());
+    std::sort(members.begin(), members.end());
+    std::vector<std::vector<Eigen::Vector3d>> gaps;
+    for (const CrackBridge& b : bridges)
+      if (std::binary_search(linked.begin(), linked.end(), b.piece)) gaps.push_back(b.segment);
+    out.push_back(FuseCrack(obs, members, co, gaps));
+  }
+}
+
 // Merges the views of each damage and fuses them; ids follow chainage (then offset).
 std::vector<MappedDamage> BuildMap(const PlacedSurvey& s, const Centreline& line, const DamageMapOptions& o,
                                    LeftOut* dropped) {
@@ -111,8 +140,7 @@ std::vector<MappedDamage> BuildMap(const PlacedSurvey& s, const Centreline& line
   CrackFusionOptions co;
   co.cell_m = o.crack_cell_m;
   co.gap_m = o.merge_tolerance_m;
-  for (const auto& members : groups(cracks, o.crack_min_overlap, o.crack_cell_m))
-    out.push_back(FuseCrack(s.obs, members, co));
+  AppendLinkedCracks(s.obs, groups(cracks, o.crack_min_overlap, o.crack_cell_m), co, o, out);
   for (MappedDamage& m : out) RateDetection(s, o.border_px, m);
   const auto before = out.size();
   std::erase_if(out, [&](const MappedDamage& m) { return static_cast<int>(m.members.size()) < o.min_observations; });
@@ -153,7 +181,8 @@ std::string Headline(const nlohmann::json& counts) {
     std::string levels;
     for (const char* level : {"high", "medium", "low", "none"})
       if (t.contains(level)) levels += fmt::format("{}{} {}", levels.empty() ? "" : ", ", level, t[level].get<int>());
-    s += fmt::format("{}{} {}{}", s.empty() ? "" : "; ", t["total"].get<int>(), type == std::string("other") ? "other" : std::string(type) + "s",
+    s += fmt::format("{}{} {}{}", s.empty() ? "" : "; ", t["total"].get<int>(),
+                     type == std::string("other") ? "other" : std::string(type) + "s",
                      levels.empty() ? "" : " (" + levels + ")");
   }
   return s;
@@ -178,6 +207,8 @@ void DamageMapOptions::Check() const {
   CheckRule(min_overlap > 0 && min_overlap <= 1, kStage, "min_overlap", min_overlap, "in (0, 1]");
   CheckRule(crack_min_overlap > 0 && crack_min_overlap <= 1, kStage, "crack_min_overlap", crack_min_overlap,
             "in (0, 1]");
+  CheckRule(crack_link_angle_deg >= 0 && crack_link_angle_deg <= 90, kStage, "crack_link_angle_deg",
+            crack_link_angle_deg, "in [0, 90]");
   severity.Check();
 }
 
@@ -215,6 +246,14 @@ const OptionTable<DamageMapOptions>& DamageMapOptions::Table() {
           .Min(0)
           .Add("crack_cell_m", &O::crack_cell_m, "raster cell of a crack's merged outline and centreline", "m")
           .Above(0)
+          .Add("crack_link_gap_m", &O::crack_link_gap_m,
+               "crack pieces whose ends face each other across a gap up to this long are one crack (a crack's "
+               "contrast dips along it, and where it dips in every view the map holds pieces); 0 links none",
+               "m")
+          .Min(0)
+          .Add("crack_link_angle_deg", &O::crack_link_angle_deg,
+               "ends face each other when the gap between them lies within this angle of both ends' directions", "deg")
+          .Min(0)
           .Add("thumbnails", &O::thumbnails, "write damage_thumbnails/<id>.jpg (a crop of the best view)")
           .Include("severity", &O::severity, SeverityOptions::Table());
   return t;
@@ -223,7 +262,7 @@ const OptionTable<DamageMapOptions>& DamageMapOptions::Table() {
 StageInfo DamageMapStage::Info() {
   StageInfo info;
   info.name = kStage;
-  info.version = 1;
+  info.version = 2;  // 2: crack pieces facing each other across a short gap are one crack
   info.doc =
       "Every pothole and crack once, on the map: per-frame detections placed with the georeferenced cameras, views "
       "of one damage merged by overlap on the road plane, measurements fused from the best views and graded, "
@@ -231,12 +270,9 @@ StageInfo DamageMapStage::Info() {
       "QGIS styles and thumbnails.";
   info.inputs = {"frames", "calibration", "damage", "trajectory_refined", "georeference"};
   info.outputs = {"damage_map"};
-  info.published = {{"damage.geojson", "damage.geojson"},
-                    {"damage.csv", "damage.csv"},
-                    {"damage.qml", "damage.qml"},
-                    {"damage_cracks.qml", "damage_cracks.qml"},
-                    {"damage_map.json", "damage_map.json"},
-                    {"damage_thumbnails", "damage_thumbnails"}};
+  info.published = {{"damage.geojson", "damage.geojson"},   {"damage.csv", "damage.csv"},
+                    {"damage.qml", "damage.qml"},           {"damage_cracks.qml", "damage_cracks.qml"},
+                    {"damage_map.json", "damage_map.json"}, {"damage_thumbnails", "damage_thumbnails"}};
   info.per_frame = true;  // its result depends on the frame selection
   return info;
 }
@@ -283,10 +319,12 @@ void DamageMapStage::Run(StageContext& ctx, const DamageMapOptions& o) const {
                    {"position_sigma_m",
                     {{"horizontal", sigma_h},
                      {"vertical", geo.sigma_enu_m.z()},
-                     {"definition", "robust sigma of the GNSS fit's residuals (georeference.json): the cameras' "
-                                    "absolute placement; views of one damage share most of it"}}},
-                   {"chainage", "metres along the cameras' ground track from the first frame; offset positive to "
-                                "the right of the direction of travel"}});
+                     {"definition",
+                      "robust sigma of the GNSS fit's residuals (georeference.json): the cameras' "
+                      "absolute placement; views of one damage share most of it"}}},
+                   {"chainage",
+                    "metres along the cameras' ground track from the first frame; offset positive to "
+                    "the right of the direction of travel"}});
   ctx.summary().frames_total = static_cast<int64_t>(placed.left_image.size());
   ctx.summary().frames_computed = ctx.summary().frames_total;
   ctx.Count("damages", static_cast<double>(damages.size()));
@@ -295,8 +333,9 @@ void DamageMapStage::Run(StageContext& ctx, const DamageMapOptions& o) const {
   ctx.Count("observations", static_cast<double>(placed.obs.size()));
   ctx.summary().counts["headline"] = Headline(counts);
   if (placed.frames_without_pose > 0)
-    ctx.Warn(fmt::format("{} frame(s) with detections have no trajectory pose: their {} detection(s) are not on the map",
-                         placed.frames_without_pose, placed.detections_unplaced));
+    ctx.Warn(
+        fmt::format("{} frame(s) with detections have no trajectory pose: their {} detection(s) are not on the map",
+                    placed.frames_without_pose, placed.detections_unplaced));
   ctx.Time("damage_map", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
 }
 

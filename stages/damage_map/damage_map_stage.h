@@ -22,6 +22,8 @@ struct DamageMapOptions {
   int min_observations = 1;          ///< damages seen by fewer views are left out (counted)
   double min_detection_rate = 0.5;   ///< share of the views with it in view that must detect it
   double crack_cell_m = 0.005;       ///< raster cell of the merged crack outline
+  double crack_link_gap_m = 0.25;    ///< crack pieces facing each other across this gap are one crack
+  double crack_link_angle_deg = 30;  ///< largest angle between the gap and the pieces' end directions
   bool thumbnails = true;            ///< write damage_thumbnails/<id>.jpg
   SeverityOptions severity;
 

@@ -6,6 +6,7 @@
 #include "stages/damage_map/footprint_overlap.h"
 #include "stages/damage_map/fuse_crack.h"
 #include "stages/damage_map/fuse_depression.h"
+#include "stages/damage_map/link_cracks.h"
 #include "stages/damage_map/view_coverage.h"
 
 namespace rs {
@@ -59,7 +60,7 @@ TEST(FootprintOverlap, ToleratesPoseErrorAndPartialViews) {
 
 TEST(FootprintOverlap, GroupsViewsOfEachDamageOnce) {
   std::vector<Footprint> f;
-  for (int k = 0; k < 4; ++k) f.push_back(FootprintOf(Disk(0.01 * k, 0.005 * k, 0.2)));  // pothole A, 4 views
+  for (int k = 0; k < 4; ++k) f.push_back(FootprintOf(Disk(0.01 * k, 0.005 * k, 0.2)));   // pothole A, 4 views
   for (int k = 0; k < 3; ++k) f.push_back(FootprintOf(Disk(1.5 - 0.01 * k, 0.3, 0.15)));  // pothole B, 3 views
   const auto groups = GroupByOverlap(f, 0.05, 0.01, 0.3);
   ASSERT_EQ(groups.size(), 2u);
@@ -69,9 +70,9 @@ TEST(FootprintOverlap, GroupsViewsOfEachDamageOnce) {
 
 TEST(FuseDepression, TheBestViewsDecideNotTheAverage) {
   std::vector<MapObservation> obs = {
-      View(1, Disk(0, 0, 0.25), 0.060, 0.004, /*complete=*/false),  // cut by the border: wrong area
-      View(2, Disk(0, 0, 0.25), 0.031, 0.002),                       // near, floor seen
-      View(3, Disk(0, 0, 0.25), 0.029, 0.002),                       // near, floor seen
+      View(1, Disk(0, 0, 0.25), 0.060, 0.004, /*complete=*/false),     // cut by the border: wrong area
+      View(2, Disk(0, 0, 0.25), 0.031, 0.002),                         // near, floor seen
+      View(3, Disk(0, 0, 0.25), 0.029, 0.002),                         // near, floor seen
       View(4, Disk(0, 0, 0.25), 0.020, 0.008, true, /*floor=*/false),  // far, rim hides the floor
   };
   const MappedDamage m = FuseDepression(obs, {0, 1, 2, 3}, FusionOptions{3});
@@ -125,6 +126,64 @@ TEST(FuseCrack, AGapWiderThanTheToleranceKeepsTwoCracks) {
   EXPECT_EQ(GroupByOverlap(f, 0.05, 0.005, 0.1).size(), 2u);
 }
 
+// Straight polyline from (x0, y0) to (x1, y1) in 1 cm steps.
+std::vector<Eigen::Vector3d> Line(double x0, double y0, double x1, double y1) {
+  const int n = static_cast<int>(std::ceil(std::hypot(x1 - x0, y1 - y0) / 0.01));
+  std::vector<Eigen::Vector3d> line;
+  for (int i = 0; i <= n; ++i) line.emplace_back(x0 + (x1 - x0) * i / n, y0 + (y1 - y0) * i / n, 0);
+  return line;
+}
+
+TEST(LinkCracks, EndsAndTheirOutwardDirections) {
+  const auto ends = CrackEnds(Line(0, 0, 1, 0), 0.1);
+  ASSERT_EQ(ends.size(), 2u);
+  EXPECT_NEAR(ends[0].point.x(), 0, 1e-12);
+  EXPECT_NEAR(ends[0].outward.x(), -1, 1e-9);
+  EXPECT_NEAR(ends[1].point.x(), 1, 1e-12);
+  EXPECT_NEAR(ends[1].outward.x(), 1, 1e-9);
+  EXPECT_TRUE(CrackEnds({{0, 0, 0}}, 0.1).empty());
+}
+
+TEST(LinkCracks, PiecesAlongOneLineAcrossShortGapsAreOneCrack) {
+  // Three pieces of one crack along x, gaps of 0.2 m and 0.15 m (slightly bent); a parallel crack
+  // 0.3 m beside it; a piece across the line's end (a T, 0.1 m off, perpendicular); a piece 0.4 m
+  // beyond the last gap.
+  const std::vector<std::vector<Eigen::Vector3d>> lines = {Line(0, 0, 1, 0),           Line(1.2, 0.02, 2.0, 0.05),
+                                                           Line(2.15, 0.05, 3.0, 0.0), Line(0, 0.3, 3, 0.3),
+                                                           Line(3.1, -0.5, 3.1, 0.5),  Line(3.4, 0, 4, 0)};
+  std::vector<CrackBridge> bridges;
+  const auto groups = LinkCrackPieces(lines, CrackLinkOptions{}, 0.05, &bridges);
+  ASSERT_EQ(groups.size(), 4u);
+  EXPECT_EQ(groups[0], (std::vector<int>{0, 1, 2}));
+  EXPECT_EQ(groups[1], (std::vector<int>{3}));
+  EXPECT_EQ(groups[2], (std::vector<int>{4}));
+  EXPECT_EQ(groups[3], (std::vector<int>{5}));
+  ASSERT_EQ(bridges.size(), 2u);
+  EXPECT_NEAR((bridges[0].segment[1] - bridges[0].segment[0]).norm(), std::hypot(0.2, 0.02), 1e-9);
+  // No linking at all, and a gap beyond the limit.
+  EXPECT_EQ(LinkCrackPieces(lines, CrackLinkOptions{0.0}, 0.05, nullptr).size(), lines.size());
+  EXPECT_EQ(LinkCrackPieces(lines, CrackLinkOptions{0.1}, 0.05, nullptr).size(), lines.size());
+}
+
+TEST(LinkCracks, ALinkedCrackIsOneCentrelineThroughTheGap) {
+  // Two views each see the same two pieces of a 2 m crack with a 0.2 m gap at [0.9, 1.1].
+  std::vector<MapObservation> obs;
+  const double w = 0.004;
+  for (int f = 1; f <= 2; ++f) {
+    obs.push_back(View(f, Rect(0.0, -w, 0.9, w), NAN, NAN, true, true, "crack"));
+    obs.push_back(View(f, Rect(1.1, -w, 2.0, w), NAN, NAN, true, true, "crack"));
+  }
+  const MappedDamage a = FuseCrack(obs, {0, 2}, CrackFusionOptions{});
+  const MappedDamage b = FuseCrack(obs, {1, 3}, CrackFusionOptions{});
+  std::vector<CrackBridge> bridges;
+  const auto groups = LinkCrackPieces({a.geometry_enu, b.geometry_enu}, CrackLinkOptions{}, 0.05, &bridges);
+  ASSERT_EQ(groups.size(), 1u);
+  ASSERT_EQ(bridges.size(), 1u);
+  const MappedDamage m = FuseCrack(obs, {0, 1, 2, 3}, CrackFusionOptions{}, {bridges[0].segment});
+  EXPECT_NEAR(m.length_m.value, 2.0, 0.03);
+  EXPECT_NE(m.basis.find("1 gap(s) between pieces bridged"), std::string::npos) << m.basis;
+}
+
 TEST(Centreline, ChainageAlongAndOffsetRightOfTravel) {
   // Driving east along y = 0, then turning north at x = 10.
   std::vector<Eigen::Vector3d> track;
@@ -167,7 +226,6 @@ TEST(GradeMappedDamage, GradesTheFusedFigures) {
   EXPECT_NE(m.astm.rule.find("45 mm"), std::string::npos) << m.astm.rule;
 }
 
-
 // A nadir camera 4 m above the ENU origin (x east, y south in the image): what it has in view.
 TEST(ViewCoverage, InViewNeedsFrontImageAndAnalysedRange) {
   RectifiedStereo cam;
@@ -181,9 +239,9 @@ TEST(ViewCoverage, InViewNeedsFrontImageAndAnalysedRange) {
   v.camera_from_enu.linear() << 1, 0, 0, 0, -1, 0, 0, 0, -1;  // camera from ENU: looking down
   v.camera_from_enu.translation() = Eigen::Vector3d(0, 0, 4);
   EXPECT_TRUE(InView(v, cam, {0, 0, 0}, 2));
-  EXPECT_TRUE(InView(v, cam, {1.9, 1.9, 0}, 2));    // u = v = 97.5 px
-  EXPECT_FALSE(InView(v, cam, {1.98, 0, 0}, 2));    // u = 99.5 px: within the border
-  EXPECT_FALSE(InView(v, cam, {0, 0, 5}, 2));       // behind the camera
+  EXPECT_TRUE(InView(v, cam, {1.9, 1.9, 0}, 2));  // u = v = 97.5 px
+  EXPECT_FALSE(InView(v, cam, {1.98, 0, 0}, 2));  // u = 99.5 px: within the border
+  EXPECT_FALSE(InView(v, cam, {0, 0, 5}, 2));     // behind the camera
   v.analysed_range_m = 3.5;
   EXPECT_FALSE(InView(v, cam, {0, 0, 0}, 2));  // 4 m away: beyond the analysed range
   EXPECT_EQ(FramesInView({v}, cam, {0, 0, 1}, 2), (std::vector<int64_t>{3}));

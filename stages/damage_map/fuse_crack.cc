@@ -115,12 +115,13 @@ std::vector<Eigen::Vector3d> MergedCenterline(const std::vector<const std::vecto
 }
 
 MappedDamage FuseCrack(const std::vector<MapObservation>& obs, const std::vector<int>& members,
-                       const CrackFusionOptions& o) {
+                       const CrackFusionOptions& o, const std::vector<std::vector<Eigen::Vector3d>>& bridges) {
   MappedDamage m;
   m.type = "crack";
   m.members = members;
   std::vector<const std::vector<Eigen::Vector3d>*> rings;
   for (int i : members) rings.push_back(&obs[i].outline_enu);
+  for (const auto& b : bridges) rings.push_back(&b);
   m.geometry_enu = MergedCenterline(rings, o);
   if (m.geometry_enu.size() < 2) {  // a speck: the longest outline diameter stands in
     m.geometry_enu = {obs[members.front()].outline_enu.front(), obs[members.front()].outline_enu.back()};
@@ -152,8 +153,9 @@ MappedDamage FuseCrack(const std::vector<MapObservation>& obs, const std::vector
   Eigen::Vector3d c = Eigen::Vector3d::Zero();
   for (const auto& p : m.geometry_enu) c += p;
   m.centroid_enu = c / static_cast<double>(m.geometry_enu.size());
-  m.basis = fmt::format("{} view(s) merged into one centreline ({:.2f} m); width from the nearest whole view(s)",
-                        members.size(), m.length_m.value);
+  m.basis = fmt::format("{} view(s) merged into one centreline ({:.2f} m){}; width from the nearest whole view(s)",
+                        members.size(), m.length_m.value,
+                        bridges.empty() ? "" : fmt::format(", {} gap(s) between pieces bridged", bridges.size()));
   return m;
 }
 

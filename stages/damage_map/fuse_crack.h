@@ -11,8 +11,8 @@
 namespace rs {
 
 struct CrackFusionOptions {
-  double cell_m = 0.005;  ///< raster cell of the merged outline (coarser for very long cracks)
-  double gap_m = 0.05;    ///< gaps between views closed up to this size
+  double cell_m = 0.005;     ///< raster cell of the merged outline (coarser for very long cracks)
+  double gap_m = 0.05;       ///< gaps between views closed up to this size
   double simplify_m = 0.01;  ///< polyline simplification tolerance (Douglas-Peucker)
 };
 
@@ -23,8 +23,10 @@ std::vector<Eigen::Vector3d> MergedCenterline(const std::vector<const std::vecto
 /// Polyline length on the road (3D).
 double PolylineLength(const std::vector<Eigen::Vector3d>& line);
 
-/// Fuses the views `members` of one crack. Severity is left to the caller.
+/// Fuses the views `members` of one crack; `bridges` (local ENU polylines, may be empty) join
+/// pieces of it across gaps no view detected (link_cracks.h). Severity is left to the caller.
 MappedDamage FuseCrack(const std::vector<MapObservation>& obs, const std::vector<int>& members,
-                       const CrackFusionOptions& options);
+                       const CrackFusionOptions& options,
+                       const std::vector<std::vector<Eigen::Vector3d>>& bridges = {});
 
 }  // namespace rs

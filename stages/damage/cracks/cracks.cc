@@ -255,6 +255,30 @@ void RemoveStaircases(cv::Mat& skel) {
     }
 }
 
+// Skeleton (CV_8U) of one candidate component `comp` (CV_8U).
+// Thinned from a smoothed outline, since a ragged one grows spurs that add to the length: a 5 × 5
+// median for components wider than 2.5 px (it keeps a line only where it is wider than 2.5 px).
+// A hairline one or two pixels wide (a crack narrower than a pixel, seen from a few metres) would
+// vanish under that median, and Zhang-Suen thinning breaks such a line wherever it steps sideways:
+// it is thinned widened by a pixel on each side, which leaves a connected centreline within a
+// pixel of it. Width: the component's area over its unsmoothed skeleton's length.
+cv::Mat CrackSkeleton(const cv::Mat& comp) {
+  cv::Mat skel;
+  cv::ximgproc::thinning(comp, skel, cv::ximgproc::THINNING_ZHANGSUEN);
+  const double width_px = cv::countNonZero(comp) / std::max(1.0, double(cv::countNonZero(skel)));
+  cv::Mat outline;
+  if (width_px > 2.5) {
+    cv::medianBlur(comp, outline, 5);
+    cv::ximgproc::thinning(outline, skel, cv::ximgproc::THINNING_ZHANGSUEN);
+    return skel & comp;
+  }
+  // Two pixels of padding: the widened line must not touch the border, which thinning leaves.
+  cv::copyMakeBorder(comp, outline, 2, 2, 2, 2, cv::BORDER_CONSTANT, cv::Scalar(0));
+  cv::dilate(outline, outline, cv::getStructuringElement(cv::MORPH_RECT, {3, 3}));
+  cv::ximgproc::thinning(outline, skel, cv::ximgproc::THINNING_ZHANGSUEN);
+  return skel(cv::Rect(2, 2, comp.cols, comp.rows)).clone();
+}
+
 // Evidence behind the candidate pixels, for the measurement: `response` (CV_8U) above
 // `level_med` (CV_8U) is the darkness profile whose area over its height gives the width;
 // classical: black-hat response, its local median and σ (k_sigma: the detection level);
@@ -290,11 +314,7 @@ void MeasureComponents(cv::Mat cand, const Evidence& e, const cv::Mat& pixel_siz
     box &= cv::Rect({}, image_size);
     const cv::Mat comp = cc(box) == i;
     cv::Mat skel, dist;
-    // Thinned from a smoothed outline: a ragged one grows spurs that add to the length.
-    cv::Mat smooth;
-    cv::medianBlur(comp, smooth, 5);
-    cv::ximgproc::thinning(smooth, skel, cv::ximgproc::THINNING_ZHANGSUEN);
-    skel &= comp;
+    skel = CrackSkeleton(comp);
     cv::distanceTransform(comp, dist, cv::DIST_L2, cv::DIST_MASK_PRECISE);
     // Spurs grown from the ragged outline reach about the mask's width: pruned up to twice it.
     const double raw_w = cv::mean(dist, skel)[0] * 2.0;
@@ -470,8 +490,13 @@ CrackDetection DetectCracks(const cv::Mat& image, const cv::Mat& road_mask, cons
     double smed = 0, ssigma = 1;
     RobustLevel(svals, &smed, &ssigma);
     const cv::Mat sgrid = LocalLevelGrid(support, search, o, smed, ssigma);
-    cand = (response > LevelMap(grid, 1, 1, image.size())) & (support > LevelMap(sgrid, 1, o.k_sigma, image.size())) &
-           search;
+    // Seeds: the pixel's response 1 σ above its level and the line support k σ above its own;
+    // grown through connected pixels where both stand line_grow_sigma above their levels.
+    const cv::Mat seeds = (response > LevelMap(grid, 1, 1, image.size())) & search &
+                          (support > LevelMap(sgrid, 1, o.k_sigma, image.size()));
+    const cv::Mat grow = (response > LevelMap(grid, 1, o.line_grow_sigma, image.size())) & search &
+                         (support > LevelMap(sgrid, 1, o.line_grow_sigma, image.size()));
+    cand = ComponentsWithSeeds(grow | seeds, seeds);
   } else {
     cand = (response > LevelMap(grid, 1, o.k_sigma, image.size())) & search;
   }

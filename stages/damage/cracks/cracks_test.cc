@@ -80,6 +80,26 @@ TEST(DetectCracks, ExcludedAndOffRoad) {
 // line length between the drawn width and 4 px more (measured +2.5 and +2.8 px: the half-depth
 // test admits the texture's dark pixels beside the line, σ 12 grey levels against a 58 deep
 // line); the texture alone gives nothing.
+// A hairline one and two pixels wide (a 2–12 mm crack seen from 6 m at 6 mm per pixel), kinked,
+// so its 8-connected pixels step sideways: one crack each, length within 10 %, width within a
+// pixel of the drawn one. A fixed 5 × 5 median before the thinning erased such lines, and
+// thinning them unwidened broke them into short pieces.
+TEST(DetectCracks, HairlineOneAndTwoPixelsWide) {
+  constexpr double kPixel = 0.006;
+  const std::vector<cv::Point> kinked = {{300, 40}, {340, 240}, {310, 440}};
+  const double length_m = (cv::norm(kinked[1] - kinked[0]) + cv::norm(kinked[2] - kinked[1])) * kPixel;
+  for (const int width : {1, 2}) {
+    cv::Mat img = Asphalt(7);
+    cv::polylines(img, kinked, false, cv::Scalar(80), width, cv::LINE_8);
+    const cv::Mat px(img.size(), CV_32F, cv::Scalar(kPixel));
+    const CrackDetection c = DetectCracks(img, cv::Mat(), cv::Mat(), px, CrackOptions());
+    ASSERT_EQ(c.instances.size(), 1u) << width;
+    const DamageInstance& d = c.instances[0];
+    EXPECT_NEAR(d.length_m, length_m, 0.10 * length_m) << width;
+    EXPECT_NEAR(d.mean_width_m, width * kPixel, kPixel) << width;
+  }
+}
+
 TEST(DetectCracks, RidgeInPixelUnits) {
   EXPECT_TRUE(DetectCracks(Asphalt(4), cv::Mat(), cv::Mat(), cv::Mat(), Ridge()).instances.empty());
   for (const int width : {3, 15}) {
@@ -267,7 +287,8 @@ TEST(CrackDetector, ModelComponentRules) {
   cv::Mat img = Asphalt(5);
   cv::line(img, {80, 120}, {560, 360}, cv::Scalar(60), 5, cv::LINE_AA);  // about 540 px long
   const auto root = std::filesystem::temp_directory_path() / ("rs_crack_rules_" + std::to_string(::getpid()));
-  nlohmann::json meta = nlohmann::json::parse(std::ifstream(std::filesystem::path(DefaultCrackModelPath()).replace_extension(".json")));
+  nlohmann::json meta =
+      nlohmann::json::parse(std::ifstream(std::filesystem::path(DefaultCrackModelPath()).replace_extension(".json")));
   auto model_with = [&](const std::string& name, const nlohmann::json& components) {
     const auto dir = root / name;
     std::filesystem::create_directories(dir);

@@ -83,16 +83,20 @@ cv::Mat RidgeStrength(const cv::Mat& grey, const cv::Mat& search, const std::vec
 cv::Mat Hysteresis(const cv::Mat& strength, const cv::Mat& search, double low, double high) {
   cv::Mat weak = strength > low;
   if (!search.empty()) weak &= search != 0;
+  return ComponentsWithSeeds(weak, strength > high);
+}
+
+cv::Mat ComponentsWithSeeds(const cv::Mat& weak, const cv::Mat& seeds) {
   cv::Mat labels;
-  const int n = cv::connectedComponents(weak, labels, 8, CV_32S);
+  const int n = cv::connectedComponents(weak != 0, labels, 8, CV_32S);
   std::vector<uchar> seeded(n, 0);
   for (int v = 0; v < labels.rows; ++v) {
     const int* l = labels.ptr<int>(v);
-    const float* s = strength.ptr<float>(v);
+    const uchar* s = seeds.ptr<uchar>(v);
     for (int u = 0; u < labels.cols; ++u)
-      if (l[u] && s[u] > high) seeded[l[u]] = 1;
+      if (l[u] && s[u]) seeded[l[u]] = 1;
   }
-  cv::Mat out = cv::Mat::zeros(strength.size(), CV_8U);
+  cv::Mat out = cv::Mat::zeros(weak.size(), CV_8U);
   for (int v = 0; v < labels.rows; ++v) {
     const int* l = labels.ptr<int>(v);
     uchar* o = out.ptr<uchar>(v);

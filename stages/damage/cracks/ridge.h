@@ -24,11 +24,15 @@ cv::Mat RidgeStrength(const cv::Mat& grey, const cv::Mat& search, const std::vec
 /// are 8-connected to a pixel above `high`. CV_8U 0/255.
 cv::Mat Hysteresis(const cv::Mat& strength, const cv::Mat& search, double low, double high);
 
+/// The 8-connected components of `weak` (CV_8U, non-zero = set) that hold a pixel of `seeds`
+/// (CV_8U, same size). CV_8U 0/255.
+cv::Mat ComponentsWithSeeds(const cv::Mat& weak, const cv::Mat& seeds);
+
 /// Keeps the components of `mask` (8-connected) unlikely to be texture, a contrario: a
 /// component whose skeleton is L px long at a median ridge scale σ holds n = L / (2σ) nearly
-/// independent samples (the Gaussian-derivative response decorrelates over ~2σ), each above the growth level with the probability p = the share of
-/// searched pixels there (`p_low`); texture explains it when N·pⁿ ≥ 1 (N = the searched pixels,
-/// the places a path may start). CV_8U 0/255.
+/// independent samples (the Gaussian-derivative response decorrelates over ~2σ), each above the growth level with the
+/// probability p = the share of searched pixels there (`p_low`); texture explains it when N·pⁿ ≥ 1 (N = the searched
+/// pixels, the places a path may start). CV_8U 0/255.
 cv::Mat MeaningfulComponents(const cv::Mat& mask, const cv::Mat& best_sigma, double p_low, double searched_px);
 
 /// The crack region of a hysteresis mask: pixels within `disc_factor` × σ of their nearest
